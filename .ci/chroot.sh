@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Build (once) and use a Debian chroot with a given suite's dolfinx.
+#
+#   .ci/chroot.sh build SUITE        create or reuse $CACHE/SUITE
+#   .ci/chroot.sh run SUITE CMD...   run CMD inside it, with the repository at /repo
+#
+# The chroots live in a cache folder outside the repository
+# (NITSCHE_CI_CACHE, default /var/cache/nitsche-dolfinx-ci) and are reused
+# when present. The mirror is the one the host's apt sources already use.
+set -euo pipefail
+
+CACHE=${NITSCHE_CI_CACHE:-/var/cache/nitsche-dolfinx-ci}
+PACKAGES="python3-dolfinx-real python3-gmsh python3-mpi4py python3-petsc4py python3-pytest
+python3-h5py python3-matplotlib build-essential python3-dev"
+REPO=$(cd "$(dirname "$0")/.." && pwd)
+
+mirror() {
+  local uri
+  uri=$(grep -rhoE '^(URIs:|deb) *https?://[^ ]+' /etc/apt/sources.list /etc/apt/sources.list.d/ 2>/dev/null \
+        | grep -v -e security -e nodesource -e google | head -n 1 | awk '{print $2}')
+  echo "${uri:-http://deb.debian.org/debian}"
+}
+
+mount_all() {
+  local dir=$1
+  for fs in proc sys dev dev/pts; do
+    mkdir -p "$dir/$fs"
+    mountpoint -q "$dir/$fs" || mount --bind "/$fs" "$dir/$fs"
+  done
+  mkdir -p "$dir/repo"
+  mountpoint -q "$dir/repo" || mount --bind "$REPO" "$dir/repo"
+}
+
+umount_all() {
+  local dir=$1
+  for fs in repo dev/pts dev sys proc; do
+    mountpoint -q "$dir/$fs" && umount -l "$dir/$fs" || true
+  done
+}
+
+build() {
+  local suite=$1 dir=$CACHE/$1
+  if [ -f "$dir/.ready" ]; then return 0; fi
+  command -v debootstrap >/dev/null || { apt-get update -qq; apt-get install -y -qq debootstrap; }
+  rm -rf "$dir"; mkdir -p "$CACHE"
+  local keyring=()
+  [ "$suite" = sid ] && keyring=(--no-check-gpg)
+  debootstrap --variant=minbase "${keyring[@]}" "$suite" "$dir" "$(mirror)" > "$CACHE/$suite.log" 2>&1 \
+    || { tail -n 20 "$CACHE/$suite.log"; return 1; }
+  cp /etc/resolv.conf "$dir/etc/resolv.conf" 2>/dev/null || true
+  mount_all "$dir"
+  trap "umount_all '$dir'" RETURN
+  chroot "$dir" /bin/bash -c "
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get -o Acquire::Check-Valid-Until=false update -qq &&
+    apt-get install -y -qq --no-install-recommends $(echo $PACKAGES) openmpi-bin" >> "$CACHE/$suite.log" 2>&1 \
+    || { tail -n 20 "$CACHE/$suite.log"; return 1; }
+  touch "$dir/.ready"
+}
+
+run() {
+  local suite=$1; shift
+  local dir=$CACHE/$suite
+  mount_all "$dir"
+  trap "umount_all '$dir'" RETURN
+  chroot "$dir" /usr/bin/env -i PATH=/usr/local/bin:/usr/bin:/bin HOME=/root LANG=C.UTF-8 \
+    OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
+    PYTHONPATH=/repo CI="${CI:-}" MPLBACKEND=Agg /bin/bash -c "cd /repo && $*"
+}
+
+cmd=${1:?usage: chroot.sh build|run SUITE [CMD...]}; shift
+"$cmd" "$@"

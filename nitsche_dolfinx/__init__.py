@@ -1,0 +1,57 @@
+"""nitsche-dolfinx: dynamic contact in elastodynamics by Nitsche's method, for FEniCSx.
+
+The method of Chouly, Hild & Renard, "A Nitsche finite element method for
+dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
+
+- :mod:`~nitsche_dolfinx.material`: sigma, eps, sigma_n, sigma_t, von Mises;
+- :mod:`~nitsche_dolfinx.obstacles`: rigid obstacles by signed distance;
+- :mod:`~nitsche_dolfinx.contact`: the Nitsche contact terms in UFL;
+- :mod:`~nitsche_dolfinx.schemes`: theta, Newmark, Crank-Nicolson and the hybrid scheme;
+- :mod:`~nitsche_dolfinx.solver`: the PETSc SNES wrapper;
+- :mod:`~nitsche_dolfinx.diagnostics`: energies E and E_Theta, contact force;
+- :mod:`~nitsche_dolfinx.problem`: the problem object and the time loop;
+- :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`;
+- :mod:`~nitsche_dolfinx.compat`: every dolfinx version difference (0.5 to 0.11).
+"""
+
+from .contact import NitscheContact, hybrid_contact_force, positive_part
+from .material import Material
+from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
+from .obstacles import PlaneObstacle, SignedDistanceObstacle
+from .output import read_history
+from .problem import HISTORY_COLUMNS, ContactProblem, Simulation
+from .schemes import (
+    SCHEMES,
+    CrankNicolson,
+    HybridScheme,
+    NewmarkScheme,
+    ThetaScheme,
+    make_scheme,
+)
+from .solver import SNESSolver, SolverError
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BAR_CLAMPED",
+    "BAR_CONTACT",
+    "ContactProblem",
+    "CrankNicolson",
+    "HISTORY_COLUMNS",
+    "HybridScheme",
+    "Material",
+    "NewmarkScheme",
+    "NitscheContact",
+    "PlaneObstacle",
+    "SCHEMES",
+    "SNESSolver",
+    "SignedDistanceObstacle",
+    "Simulation",
+    "SolverError",
+    "ThetaScheme",
+    "bar_mesh",
+    "hybrid_contact_force",
+    "make_scheme",
+    "positive_part",
+    "read_history",
+]

@@ -1,0 +1,232 @@
+"""Every dolfinx, UFL and numpy API difference between dolfinx 0.5.2 and 0.11, in one place.
+
+The rest of the package calls these shims and never looks at a version number.
+Each shim detects the feature it needs (``hasattr`` or ``try``/``except``) so
+that a dolfinx release in between, or a backport, takes the right branch by
+itself.
+"""
+
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+__all__ = [
+    "apply_lifting",
+    "cell_name",
+    "create_matrix",
+    "create_vector",
+    "expression",
+    "dofmap_array",
+    "function_space",
+    "geometry_degree",
+    "geometry_dofmap",
+    "gmsh_model_to_mesh",
+    "interpolation_points",
+    "petsc_vector",
+    "read_gmsh_file",
+    "read_meshtags",
+    "set_bc",
+    "set_divergence_tolerance",
+    "trapezoid",
+    "write_meshtags",
+]
+
+
+# -- numpy -----------------------------------------------------------------------------
+
+#: ``numpy.trapz`` was removed in numpy 2 in favour of ``numpy.trapezoid``.
+trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
+
+# -- function spaces -------------------------------------------------------------------
+
+
+def function_space(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
+    """A Lagrange-type function space with values of the given shape.
+
+    Args:
+        mesh: The dolfinx mesh.
+        family: Element family, e.g. ``"Lagrange"`` or ``"DG"``.
+        degree: Polynomial degree.
+        shape: Value shape: ``()`` for a scalar field, ``(gdim,)`` for a vector field.
+
+    Returns:
+        The function space (``fem.functionspace`` from dolfinx 0.7, the
+        ``FunctionSpace``/``VectorFunctionSpace`` constructors before).
+    """
+    shape = tuple(shape)
+    if hasattr(fem, "functionspace"):
+        return fem.functionspace(mesh, (family, degree, shape) if shape else (family, degree))
+    if shape:
+        return fem.VectorFunctionSpace(mesh, (family, degree), dim=shape[0])
+    return fem.FunctionSpace(mesh, (family, degree))
+
+
+def dofmap_array(V) -> np.ndarray:
+    """The cell-to-dof map of ``V`` as a 2D array (num_cells, dofs_per_cell)."""
+    dofs = V.dofmap.list
+    if hasattr(dofs, "array") and not isinstance(dofs, np.ndarray):  # AdjacencyList (<= 0.7)
+        return dofs.array.reshape(-1, V.dofmap.dof_layout.num_dofs)
+    return np.asarray(dofs)
+
+
+def geometry_dofmap(mesh) -> np.ndarray:
+    """The cell-to-geometry-node map of ``mesh`` as a 2D array (num_cells, nodes_per_cell)."""
+    dofs = mesh.geometry.dofmap
+    if hasattr(dofs, "array") and not isinstance(dofs, np.ndarray):  # AdjacencyList (<= 0.7)
+        num_cells = len(dofs.offsets) - 1
+        return dofs.array.reshape(num_cells, -1)
+    return np.asarray(dofs)
+
+
+def geometry_degree(mesh) -> int:
+    """Polynomial degree of the mesh geometry (2 for a second-order gmsh mesh)."""
+    cmap = mesh.geometry.cmap
+    if callable(cmap):  # >= 0.10 with several coordinate maps: geometry.cmap() is not a thing
+        cmap = cmap()
+    return int(cmap.degree)
+
+
+def cell_name(mesh) -> str:
+    """Name of the cell type: ``"interval"``, ``"triangle"``, ``"tetrahedron"``, ..."""
+    return mesh.topology.cell_type.name
+
+
+# -- PETSc vectors and assembly ------------------------------------------------------
+
+
+def petsc_vector(u: fem.Function) -> PETSc.Vec:
+    """The PETSc vector that shares memory with a Function's dof array."""
+    x = u.x
+    if hasattr(x, "petsc_vec"):  # >= 0.8
+        return x.petsc_vec
+    return u.vector
+
+
+def create_vector(V) -> PETSc.Vec:
+    """A ghosted PETSc vector with the layout of the function space ``V``."""
+    from dolfinx import la
+
+    if hasattr(la, "create_petsc_vector"):  # <= 0.9
+        return la.create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs)
+    return fem_petsc.create_vector(V)  # >= 0.10: takes function spaces
+
+
+def create_matrix(a) -> PETSc.Mat:
+    """A PETSc matrix with the sparsity of the compiled bilinear form ``a``."""
+    return fem_petsc.create_matrix(a)
+
+
+def apply_lifting(b: PETSc.Vec, a, bcs, x0=None, alpha: float = 1.0) -> None:
+    """b -= alpha A (g - x0) on the rows coupled to Dirichlet dofs.
+
+    The scale argument is ``scale`` up to 0.8 and ``alpha`` from 0.9, so it is
+    passed positionally; ``x0`` is a list up to 0.9 and may be ``None`` after.
+    """
+    x0_list = [] if x0 is None else [x0]
+    fem_petsc.apply_lifting(b, [a], bcs=[bcs], x0=x0_list, **{_LIFTING_SCALE: alpha})
+
+
+def set_bc(b: PETSc.Vec, bcs, x0=None, alpha: float = 1.0) -> None:
+    """b[bc dofs] = alpha (g - x0); the scale is positional for the same reason."""
+    fem_petsc.set_bc(b, bcs, x0, alpha)
+
+
+def _scale_keyword(function) -> str:
+    parameters = inspect.signature(function).parameters
+    return "alpha" if "alpha" in parameters else "scale"
+
+
+_LIFTING_SCALE = _scale_keyword(fem_petsc.apply_lifting)
+
+
+def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> None:
+    """Set SNES's divergence tolerance (-1 disables the test).
+
+    petsc4py >= 3.20 has a setter; before, only the options database knows it.
+    Call before ``snes.setFromOptions()``.
+    """
+    if hasattr(snes, "setDivergenceTolerance"):
+        snes.setDivergenceTolerance(dtol)
+    else:
+        PETSc.Options()[f"{snes.getOptionsPrefix() or ''}snes_divergence_tolerance"] = dtol
+
+
+# -- expressions -----------------------------------------------------------------------
+
+
+def interpolation_points(V) -> np.ndarray:
+    """Reference points at which ``V``'s element interpolates (property from 0.7, method before)."""
+    points = V.element.interpolation_points
+    return points() if callable(points) else points
+
+
+def expression(ufl_expression, V) -> fem.Expression:
+    """A compiled expression to interpolate into ``V`` with ``Function.interpolate``."""
+    return fem.Expression(ufl_expression, interpolation_points(V))
+
+
+# -- gmsh and XDMF ---------------------------------------------------------------------
+
+
+def gmsh_model_to_mesh(model, comm, rank: int, gdim: int):
+    """Convert a gmsh model into ``(mesh, cell_tags, facet_tags)``.
+
+    ``dolfinx.io.gmshio.model_to_mesh`` returns a tuple up to 0.9;
+    ``dolfinx.io.gmsh.model_to_mesh`` returns a named tuple from 0.10.
+    """
+    import dolfinx.io
+
+    module = getattr(dolfinx.io, "gmsh", None)
+    if module is None or not hasattr(module, "model_to_mesh"):
+        module = _import_gmshio()
+    result = module.model_to_mesh(model, comm, rank, gdim=gdim)
+    if hasattr(result, "mesh"):
+        return result.mesh, result.cell_tags, result.facet_tags
+    return result[0], result[1], result[2]
+
+
+def read_gmsh_file(filename: str, comm, rank: int, gdim: int):
+    """Read a ``.msh`` file into ``(mesh, cell_tags, facet_tags)`` on every rank."""
+    import dolfinx.io
+
+    module = getattr(dolfinx.io, "gmsh", None)
+    if module is None or not hasattr(module, "read_from_msh"):
+        module = _import_gmshio()
+    result = module.read_from_msh(filename, comm, rank, gdim=gdim)
+    if hasattr(result, "mesh"):
+        return result.mesh, result.cell_tags, result.facet_tags
+    return result[0], result[1], result[2]
+
+
+def _import_gmshio():
+    try:
+        from dolfinx.io import gmshio  # 0.6 - 0.9
+    except ImportError:  # 0.5: gmshio is a submodule that must be imported explicitly
+        import importlib
+
+        gmshio = importlib.import_module("dolfinx.io.gmshio")
+    return gmshio
+
+
+def write_meshtags(xdmf, tags, mesh) -> None:
+    """Write mesh tags to an open XDMFFile (the geometry argument appeared in 0.6)."""
+    try:
+        xdmf.write_meshtags(tags, mesh.geometry)
+    except TypeError:  # 0.5: the geometry is taken from the tags' mesh
+        xdmf.write_meshtags(tags)
+
+
+def read_meshtags(xdmf, mesh, name: str):
+    """Read the mesh tags called ``name`` from an open XDMFFile."""
+    return xdmf.read_meshtags(mesh, name)
+
+
+def create_connectivity(mesh, d0: int, d1: int) -> None:
+    """Build the d0 -> d1 topology connectivity."""
+    mesh.topology.create_connectivity(d0, d1)

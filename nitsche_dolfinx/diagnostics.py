@@ -1,0 +1,100 @@
+"""Energies and contact diagnostics of SPEC section 4, reduced over MPI every step.
+
+    E^h       = 1/2 ||sqrt(rho) u'||^2 + 1/2 a(u, u) - L(u)
+    E_Theta^h = E^h - Theta/2 ( ||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P_gamma(u)]_+||^2 )
+
+A local ``assemble_scalar`` is only this rank's share: every value here is an
+``allreduce`` over the mesh's communicator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from . import compat
+
+__all__ = ["BoundaryAverage", "Diagnostics", "assemble_global"]
+
+
+def assemble_global(form, comm) -> float:
+    """The value of a compiled scalar form over the whole mesh."""
+    return comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+
+class BoundaryAverage:
+    """Mean value of a scalar expression over a tagged boundary part.
+
+    On a 1D mesh, where a boundary part is one point, this is the point value:
+    the bar demo reads u(t, 0) and lambda_h(t, 0) this way.
+    """
+
+    def __init__(self, mesh, expression, ds):
+        self.comm = mesh.comm
+        self._integral = fem.form(expression * ds)
+        self._measure = assemble_global(fem.form(fem.Constant(mesh, 1.0) * ds), self.comm)
+        if self._measure == 0.0:
+            raise ValueError("the boundary part has zero measure: is its tag in the mesh?")
+
+    def __call__(self) -> float:
+        return assemble_global(self._integral, self.comm) / self._measure
+
+
+class Diagnostics:
+    """Energies, contact force, contact area and penetration of a displacement/velocity pair.
+
+    Args:
+        model: The :class:`~nitsche_dolfinx.problem.ContactProblem`.
+        u: Displacement at the current time level.
+        v: Velocity at the current time level.
+    """
+
+    def __init__(self, model, u: fem.Function, v: fem.Function):
+        self.comm = model.mesh.comm
+        dx = model.dx
+        rho = model.material.rho
+        forms = {
+            "kinetic": 0.5 * rho * ufl.inner(v, v) * dx,
+            "elastic": 0.5 * model.bulk_stiffness(u, u),
+            "potential": -model.load(u),
+        }
+        zero = fem.Constant(model.mesh, 0.0) * dx
+        forms["energy_correction"] = sum((c.energy_correction(u) for c in model.contacts), zero)
+        forms["contact_force"] = sum((c.force(u) for c in model.contacts), zero)
+        forms["contact_area"] = sum((c.area(u) for c in model.contacts), zero)
+        self._forms = {name: fem.form(form) for name, form in forms.items()}
+
+        # penetration u_n - g at the dofs of Gamma_C, interpolated into a scalar space
+        self._penetration = []
+        if model.contacts:
+            P = compat.function_space(model.mesh, "Lagrange", model.degree)
+            fdim = model.mesh.topology.dim - 1
+            for contact, tag in zip(model.contacts, model.contact_tags):
+                field = fem.Function(P)
+                expression = compat.expression(contact.penetration(u), P)
+                facets = model.facets(tag)
+                dofs = fem.locate_dofs_topological(P, fdim, facets)
+                self._penetration.append((field, expression, dofs))
+
+    def penetration_max(self) -> float:
+        """max over Gamma_C of u_n - g at the dofs (> 0 means penetration); -inf without contact."""
+        local = -np.inf
+        for field, expression, dofs in self._penetration:
+            field.interpolate(expression)
+            if len(dofs):
+                local = max(local, float(field.x.array[dofs].max()))
+        return self.comm.allreduce(local, op=MPI.MAX)
+
+    def compute(self) -> dict[str, float]:
+        """All diagnostics at the current state, identical on every rank."""
+        local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
+        values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
+        energy = values["kinetic"] + values["elastic"] + values["potential"]
+        return {
+            "energy": energy,
+            "energy_theta": energy + values.pop("energy_correction"),
+            **values,
+            "penetration_max": self.penetration_max(),
+        }

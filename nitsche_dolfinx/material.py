@@ -1,0 +1,99 @@
+"""Linear elastic material and the stress quantities of the contact conditions.
+
+Conventions of SPEC section 1: ``sigma(u) = lambda tr(eps(u)) I + 2 mu eps(u)``
+(plane strain in 2D, ``sigma = E u'`` in 1D), ``sigma_n(u) = (sigma(u) n) . n_c``
+with ``n`` the outward unit normal of the mesh and ``n_c`` the obstacle normal,
+and ``sigma_t(u) = sigma(u) n - sigma_n(u) n_c``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ufl
+
+__all__ = ["Material", "eps", "sigma", "sigma_n", "sigma_t", "von_mises"]
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic linear elastic material.
+
+    Args:
+        E: Young's modulus (> 0).
+        nu: Poisson's ratio, in (-1, 1/2).
+        rho: Density (> 0).
+    """
+
+    E: float
+    nu: float
+    rho: float = 1.0
+
+    def __post_init__(self):
+        if not self.E > 0:
+            raise ValueError(f"Young's modulus E must be positive, got E={self.E!r}")
+        if not -1.0 < self.nu < 0.5:
+            raise ValueError(f"Poisson's ratio nu must lie in (-1, 1/2), got nu={self.nu!r}")
+        if not self.rho > 0:
+            raise ValueError(f"density rho must be positive, got rho={self.rho!r}")
+
+    @classmethod
+    def from_lame(cls, lmbda: float, mu: float, rho: float = 1.0) -> Material:
+        """The material with Lame coefficients ``lmbda`` and ``mu``."""
+        if not mu > 0:
+            raise ValueError(f"shear modulus mu must be positive, got mu={mu!r}")
+        if not lmbda + mu > 0:
+            raise ValueError(f"Lame coefficients need lambda + mu > 0, got lambda={lmbda!r}")
+        E = mu * (3 * lmbda + 2 * mu) / (lmbda + mu)
+        nu = lmbda / (2 * (lmbda + mu))
+        return cls(E=E, nu=nu, rho=rho)
+
+    @property
+    def lmbda(self) -> float:
+        """First Lame coefficient lambda."""
+        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+
+    @property
+    def mu(self) -> float:
+        """Shear modulus mu."""
+        return self.E / (2 * (1 + self.nu))
+
+
+def eps(u):
+    """Linearised strain eps(u) = sym(grad u)."""
+    return ufl.sym(ufl.grad(u))
+
+
+def sigma(u, material: Material):
+    """Cauchy stress of linear elasticity; ``E u'`` on a 1D mesh, plane strain in 2D."""
+    dim = u.ufl_shape[0]
+    if dim == 1:
+        return material.E * eps(u)
+    return material.lmbda * ufl.tr(eps(u)) * ufl.Identity(dim) + 2 * material.mu * eps(u)
+
+
+def sigma_n(stress, n, n_c):
+    """Normal stress ``(sigma n) . n_c`` on the contact boundary."""
+    return ufl.dot(ufl.dot(stress, n), n_c)
+
+
+def sigma_t(stress, n, n_c):
+    """Tangential stress ``sigma n - sigma_n n_c``."""
+    return ufl.dot(stress, n) - sigma_n(stress, n, n_c) * n_c
+
+
+def von_mises(u, material: Material):
+    """Von Mises equivalent stress; the out-of-plane stress of plane strain is included in 2D."""
+    dim = u.ufl_shape[0]
+    stress = sigma(u, material)
+    if dim == 1:
+        return abs(stress[0, 0])
+    if dim == 2:  # plane strain: sigma_zz = lambda tr(eps)
+        szz = material.lmbda * ufl.tr(eps(u))
+        s = ufl.as_matrix(
+            [[stress[0, 0], stress[0, 1], 0], [stress[1, 0], stress[1, 1], 0], [0, 0, szz]]
+        )
+    else:
+        s = stress
+    deviator = s - ufl.tr(s) / 3 * ufl.Identity(3)
+    return ufl.sqrt(3.0 / 2.0 * ufl.inner(deviator, deviator))

@@ -1,0 +1,432 @@
+"""The problem object (a model to which terms are added) and the time loop.
+
+A :class:`ContactProblem` holds the mesh, the material and the terms of the
+weak form: Dirichlet conditions, loads, and one Nitsche contact per rigid
+obstacle. A :class:`Simulation` marches it in time with a scheme of
+:mod:`nitsche_dolfinx.schemes`, one SNES solve per step, and reports the
+diagnostics of :mod:`nitsche_dolfinx.diagnostics`.
+
+Example (the 1D bar of the talk)::
+
+    mesh, tags = bar_mesh(100)
+    problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.0, rho=1.0),
+                             gamma0=1e-6, nitsche_theta=1.0)
+    problem.add_dirichlet(BAR_CLAMPED, 0.0)
+    problem.add_obstacle(PlaneObstacle([0.0], [1.0]), BAR_CONTACT)
+    problem.set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)
+    sim = Simulation(problem, HybridScheme(), dt=0.015, t_end=6.0)
+    sim.run(out="out/bar")
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from . import compat
+from .contact import NitscheContact
+from .diagnostics import Diagnostics
+from .material import Material, sigma, von_mises
+from .meshes import cell_diameter
+from .output import HistoryWriter, SolutionWriter, ensure_directory
+from .schemes import TimeScheme
+from .solver import SNESSolver
+
+__all__ = ["ContactProblem", "Simulation", "HISTORY_COLUMNS"]
+
+#: Columns of ``history.csv`` for the 2D/3D demos (SPEC section 6).
+HISTORY_COLUMNS = (
+    "t",
+    "energy",
+    "energy_theta",
+    "kinetic",
+    "elastic",
+    "potential",
+    "contact_force",
+    "contact_area",
+    "penetration_max",
+    "newton_iterations",
+    "step_seconds",
+)
+
+
+class _TimeDependentValue:
+    """A constant or a function of t, held in a ``fem.Constant`` that follows the time."""
+
+    def __init__(self, mesh, value, shape: tuple[int, ...], what: str):
+        self._function = value if callable(value) else None
+        initial = value(0.0) if callable(value) else value
+        self.constant = fem.Constant(mesh, _as_array(initial, shape, what))
+        self.shape = shape
+        self.what = what
+
+    def value_at(self, t: float) -> np.ndarray:
+        if self._function is None:
+            return np.asarray(self.constant.value)
+        return _as_array(self._function(t), self.shape, self.what)
+
+    def set_time(self, t: float) -> None:
+        if self._function is not None:
+            self.constant.value = self.value_at(t)
+
+
+def _as_array(value, shape, what) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if array.shape != shape:
+        if array.size == 1 and shape == (1,):
+            return array.reshape(shape)
+        raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
+    return array
+
+
+class ContactProblem:
+    """Linear elastodynamics with Nitsche contact against rigid obstacles.
+
+    Args:
+        mesh: The dolfinx mesh (1D, 2D or 3D).
+        facet_tags: Facet tags naming the boundary parts used by the terms.
+        material: The elastic material and its density.
+        degree: Degree of the Lagrange displacement space (1 or 2).
+        gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact).
+        nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
+        friction: Coulomb coefficient mu_f; only 0 (frictionless) is implemented so far.
+
+    ``gamma0`` and ``nitsche_theta`` are ``fem.Constant`` attributes: change
+    their ``.value`` between runs without recompiling any form.
+    """
+
+    def __init__(
+        self,
+        mesh,
+        facet_tags,
+        material: Material,
+        degree: int = 1,
+        gamma0: float = 1.0,
+        nitsche_theta: float = 1.0,
+        friction: float = 0.0,
+    ):
+        if not gamma0 > 0:
+            raise ValueError(f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}")
+        if friction != 0.0:
+            raise NotImplementedError(
+                f"friction={friction!r}: Coulomb friction is not implemented yet; use friction=0"
+            )
+        if int(degree) not in (1, 2):
+            raise ValueError(f"degree must be 1 or 2, got degree={degree!r}")
+        self.mesh = mesh
+        self.facet_tags = facet_tags
+        self.material = material
+        self.degree = int(degree)
+        self.friction = friction
+        self.gdim = mesh.geometry.dim
+        self.V = compat.function_space(mesh, "Lagrange", self.degree, (self.gdim,))
+        self.gamma0 = fem.Constant(mesh, float(gamma0))
+        self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
+        self.h = cell_diameter(mesh)
+        self.gamma_h = self.gamma0 * self.h
+        self.dx = ufl.Measure("dx", domain=mesh)
+        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
+        self.contacts: list[NitscheContact] = []
+        self.contact_tags: list[int] = []
+        self.dirichlet: list[tuple[int, _TimeDependentValue]] = []
+        self._body_forces: list[_TimeDependentValue] = []
+        self._tractions: list[tuple[int, _TimeDependentValue]] = []
+        self.initial_displacement = None
+        self.initial_velocity = None
+
+    # -- building the model ------------------------------------------------------------
+
+    def facets(self, tag: int) -> np.ndarray:
+        """Local indices of the facets tagged ``tag``; raises if no rank has any."""
+        tags = self.facet_tags
+        found = tags.indices[tags.values == tag].astype(np.int32) if tags is not None else []
+        if self.mesh.comm.allreduce(len(found), op=MPI.SUM) == 0:
+            present = sorted(set(self.mesh.comm.allreduce(
+                [] if tags is None else np.unique(tags.values).tolist(), op=MPI.SUM)))
+            raise ValueError(f"facet tag {tag!r} is not in the mesh (its facet tags are {present})")
+        return np.asarray(found, dtype=np.int32)
+
+    def add_dirichlet(self, tag: int, value=0.0) -> None:
+        """Prescribe the displacement on the facets ``tag``: a vector (or scalar in 1D),
+        or a function of t returning one."""
+        self.facets(tag)
+        self.dirichlet.append((tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value")))
+
+    def add_body_force(self, value) -> None:
+        """Add a volume force f: a vector, or a function of t returning one."""
+        self._body_forces.append(_TimeDependentValue(self.mesh, value, (self.gdim,), "body force"))
+
+    def add_traction(self, tag: int, value) -> None:
+        """Add a Neumann traction g_N on the facets ``tag``: a vector, or a function of t."""
+        self.facets(tag)
+        self._tractions.append((tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "traction")))
+
+    def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
+        """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
+        self.facets(tag)
+        contact = NitscheContact(obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta)
+        self.contacts.append(contact)
+        self.contact_tags.append(tag)
+        return contact
+
+    def set_initial_conditions(self, displacement=None, velocity=None) -> None:
+        """Initial displacement u0 and velocity v0 (zero when omitted).
+
+        Each is a constant vector, a function of the coordinates ``x`` (shape (3, N))
+        returning the values (shape (gdim, N), or (N,) in 1D), or a Function on the
+        displacement space.
+        """
+        self.initial_displacement = displacement
+        self.initial_velocity = velocity
+
+    # -- the terms of the weak form, used by the time schemes --------------------------
+
+    def stress(self, u):
+        """sigma(u)."""
+        return sigma(u, self.material)
+
+    def bulk_stiffness(self, u, v):
+        """a(u, v) = int sigma(u) : eps(v)."""
+        return ufl.inner(self.stress(u), ufl.sym(ufl.grad(v))) * self.dx
+
+    def inertia(self, acceleration, v):
+        """<rho u'', v>."""
+        return self.material.rho * ufl.inner(acceleration, v) * self.dx
+
+    def operator(self, u, v):
+        """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact term at one time level."""
+        form = self.bulk_stiffness(u, v)
+        for contact in self.contacts:
+            form = form + contact.residual(u, v)
+        return form
+
+    def hybrid_operator(self, u_old, u_new, v):
+        """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term Phi."""
+        form = self.bulk_stiffness((u_old + u_new) / 2, v)
+        for contact in self.contacts:
+            form = form + contact.hybrid_residual(u_old, u_new, v)
+        return form
+
+    def load(self, v):
+        """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
+        zero = fem.Constant(self.mesh, np.zeros(self.gdim))
+        form = ufl.inner(zero, v) * self.dx
+        for force in self._body_forces:
+            form = form + ufl.inner(force.constant, v) * self.dx
+        for tag, traction in self._tractions:
+            form = form + ufl.inner(traction.constant, v) * self.ds(tag)
+        return form
+
+    def set_time(self, t: float) -> None:
+        """Move the time-dependent loads to time ``t``."""
+        for force in self._body_forces:
+            force.set_time(t)
+        for _, traction in self._tractions:
+            traction.set_time(t)
+
+
+class Simulation:
+    """March a :class:`ContactProblem` in time with one SNES solve per step.
+
+    Args:
+        problem: The problem.
+        scheme: The time scheme.
+        dt: Time step tau (> 0).
+        t_end: Final time T (>= dt).
+        petsc_options: PETSc options for the step's SNES (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+        progress: Print one line per step on rank 0.
+    """
+
+    def __init__(
+        self,
+        problem: ContactProblem,
+        scheme: TimeScheme,
+        dt: float,
+        t_end: float,
+        petsc_options: dict[str, Any] | None = None,
+        progress: bool = False,
+    ):
+        if not dt > 0:
+            raise ValueError(f"the time step must be positive, got dt={dt!r}")
+        if not t_end >= dt:
+            raise ValueError(f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}")
+        self.problem = problem
+        self.scheme = scheme
+        self.dt = float(dt)
+        self.t_end = float(t_end)
+        self.num_steps = int(round(self.t_end / self.dt))
+        self.progress = progress
+        self.comm = problem.mesh.comm
+        V = problem.V
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.w = fem.Function(V, name="unknown")
+        self.t = 0.0
+        self.step_index = 0
+        self.newton_iterations = 0
+        self.step_seconds = 0.0
+        self._probes: dict[str, Callable[[], float]] = {}
+
+        fdim = problem.mesh.topology.dim - 1
+        self._bc_dofs = [
+            (fem.locate_dofs_topological(V, fdim, problem.facets(tag)), value)
+            for tag, value in problem.dirichlet
+        ]
+        self._w_bc = fem.Function(V)
+        bcs = [fem.dirichletbc(self._w_bc, dofs) for dofs, _ in self._bc_dofs]
+        test = ufl.TestFunction(V)
+        dt_c = fem.Constant(problem.mesh, self.dt)
+        F = scheme.residual(problem, self.w, self.u, self.v, self.a, dt_c, test)
+        self.solver = SNESSolver(F, self.w, bcs, petsc_options=petsc_options)
+        self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self._petsc_options = petsc_options
+        self._initialize()
+
+    # -- state ---------------------------------------------------------------------------
+
+    def _interpolate_initial(self, target: fem.Function, value) -> None:
+        if value is None:
+            target.x.array[:] = 0.0
+        elif isinstance(value, fem.Function):
+            target.interpolate(value)
+        elif callable(value):
+            gdim = self.problem.gdim
+            target.interpolate(lambda x: np.asarray(value(x), dtype=float).reshape(gdim, -1))
+        else:
+            array = _as_array(value, (self.problem.gdim,), "initial value")
+            target.interpolate(lambda x: np.tile(array[:, None], (1, x.shape[1])))
+        target.x.scatter_forward()
+
+    def _set_dirichlet(self, target: np.ndarray, t: float) -> None:
+        """Write the Dirichlet values at time t into the dof array ``target``."""
+        bs = self.problem.V.dofmap.index_map_bs
+        for dofs, value in self._bc_dofs:
+            target.reshape(-1, bs)[dofs] = value.value_at(t)
+
+    def _initialize(self) -> None:
+        """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""
+        problem = self.problem
+        self._interpolate_initial(self.u, problem.initial_displacement)
+        self._interpolate_initial(self.v, problem.initial_velocity)
+        self._set_dirichlet(self.u.x.array, 0.0)
+        problem.set_time(0.0)
+        V = problem.V
+        test = ufl.TestFunction(V)
+        F0 = problem.inertia(self.a, test) + problem.operator(self.u, test) - problem.load(test)
+        zero = fem.Function(V)
+        bcs = [fem.dirichletbc(zero, dofs) for dofs, _ in self._bc_dofs]
+        self.a.x.array[:] = 0.0
+        solver = SNESSolver(F0, self.a, bcs, petsc_options=self._petsc_options)
+        solver.solve()
+        solver.destroy()
+
+    def add_probe(self, name: str, probe: Callable[[], float]) -> None:
+        """Add a history column computed by ``probe()`` at every time level."""
+        self._probes[name] = probe
+
+    def state(self) -> dict[str, float]:
+        """Diagnostics at the current time level, identical on every rank."""
+        values = {"t": self.t, **self.diagnostics.compute()}
+        values["newton_iterations"] = self.newton_iterations
+        values["step_seconds"] = self.step_seconds
+        for name, probe in self._probes.items():
+            values[name] = probe()
+        return values
+
+    # -- time stepping -------------------------------------------------------------------
+
+    def step(self) -> int:
+        """Advance one time step; returns the Newton iterations."""
+        start = time.perf_counter()
+        problem, scheme, dt = self.problem, self.scheme, self.dt
+        t_new = self.t + dt
+        problem.set_time(scheme.equation_time(self.t, dt))
+        if self._bc_dofs:
+            u_free, _, _ = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, 0.0, dt)
+            target = u_free.copy()
+            self._set_dirichlet(target, t_new)
+            self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
+        self.w.x.array[:] = self.a.x.array  # initial guess: the last acceleration
+        iterations = self.solver.solve()
+        u1, v1, a1 = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt)
+        self.u.x.array[:] = u1
+        self.v.x.array[:] = v1
+        self.a.x.array[:] = a1
+        self.t = t_new
+        self.step_index += 1
+        problem.set_time(self.t)
+        self.newton_iterations = iterations
+        self.step_seconds = time.perf_counter() - start
+        return iterations
+
+    def von_mises(self):
+        """The von Mises stress of the current displacement, as a UFL expression."""
+        return von_mises(self.u, self.problem.material)
+
+    def run(
+        self,
+        out: str | None = None,
+        columns=HISTORY_COLUMNS,
+        callback: Callable[[Simulation], None] | None = None,
+        output_every: int = 0,
+    ) -> list[dict[str, float]]:
+        """Run to t_end.
+
+        Args:
+            out: Output folder for ``history.csv`` (and ``solution.xdmf`` when
+                ``output_every > 0``); nothing is written when omitted.
+            columns: History columns: names of :meth:`state` entries.
+            callback: Called as ``callback(simulation)`` after every step.
+            output_every: Write the XDMF fields every this many steps (0: never).
+
+        Returns:
+            The history, one dict of :meth:`state` values per time level.
+        """
+        history, xdmf = None, None
+        if out is not None:
+            ensure_directory(out, self.comm)
+            history = HistoryWriter(os.path.join(out, "history.csv"), columns, self.comm)
+            if output_every > 0:
+                shape = (self.problem.gdim,)
+                xdmf = SolutionWriter(
+                    os.path.join(out, "solution.xdmf"),
+                    self.problem.mesh,
+                    {"displacement": (self.u, shape), "velocity": (self.v, shape),
+                     "von_mises": (self.von_mises(), ())},
+                )
+        records = []
+        try:
+            self._record(records, history, xdmf, output_every)
+            while self.step_index < self.num_steps:
+                self.step()
+                self._record(records, history, xdmf, output_every)
+                if callback is not None:
+                    callback(self)
+        finally:
+            if history is not None:
+                history.close()
+            if xdmf is not None:
+                xdmf.close()
+        return records
+
+    def _record(self, records, history, xdmf, output_every) -> None:
+        values = self.state()
+        records.append(values)
+        if history is not None:
+            history.write(values)
+        if xdmf is not None and self.step_index % output_every == 0:
+            xdmf.write(self.t)
+        if self.progress and self.comm.rank == 0:
+            print(
+                f"step {self.step_index:5d}  t = {self.t:9.4f}  newton = {values['newton_iterations']:2d}"
+                f"  E = {values['energy']: .10e}  contact force = {values['contact_force']:.4e}",
+                flush=True,
+            )

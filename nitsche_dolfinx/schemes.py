@@ -1,0 +1,171 @@
+"""Time-marching schemes of SPEC section 3, as small classes with one interface.
+
+Every step solves one nonlinear system for an acceleration-like unknown ``w``;
+each scheme says how the new displacement, velocity and acceleration follow
+from ``w`` (:meth:`TimeScheme.kinematics`, the same code for UFL expressions
+and for numpy arrays) and which equation ``w`` solves
+(:meth:`TimeScheme.residual`). Taking an acceleration as the unknown keeps the
+explicit members (theta = 0, beta = 0) in the same mould.
+
+- :class:`ThetaScheme`: ``u^{n+1} = u^n + tau v^{n+theta}``,
+  ``v^{n+1} = v^n + tau a^{n+theta}``, equation at t^{n+1}; ``w = a^{n+1}``.
+- :class:`NewmarkScheme`: ``u^{n+1} = u^n + tau v^n + tau^2/2 a^{n+2 beta}``,
+  ``v^{n+1} = v^n + tau a^{n+gamma}``, equation at t^{n+1}; ``w = a^{n+1}``.
+- :class:`CrankNicolson`: the theta-scheme with theta = 1/2.
+- :class:`HybridScheme`: ``u^{n+1} = u^n + tau v^{n+1/2}``,
+  ``v^{n+1} = v^n + tau a^{n+1/2}``, bulk terms and load at the midpoint, contact
+  term Phi switching per quadrature point (:func:`~nitsche_dolfinx.contact.hybrid_contact_force`);
+  ``w = a^{n+1/2}``.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "CrankNicolson",
+    "HybridScheme",
+    "NewmarkScheme",
+    "ThetaScheme",
+    "TimeScheme",
+    "make_scheme",
+    "SCHEMES",
+]
+
+
+class TimeScheme:
+    """Interface of a time scheme (see the module docstring).
+
+    The ``model`` passed to :meth:`residual` provides ``inertia(a, v)``,
+    ``operator(u, v)`` (A_Thgamma plus the contact term at one time level),
+    ``hybrid_operator(u_old, u_new, v)`` and ``load(v)``.
+    """
+
+    name = "scheme"
+
+    def kinematics(self, u, v, a, w, dt):
+        """``(u^{n+1}, v^{n+1}, a^{n+1})`` from the state at t^n and the unknown ``w``."""
+        raise NotImplementedError
+
+    def residual(self, model, w, u, v, a, dt, test):
+        """The residual form whose root is ``w``."""
+        raise NotImplementedError
+
+    def equation_time(self, t: float, dt: float) -> float:
+        """The time at which the loads of the step's equation are evaluated."""
+        return t + dt
+
+    def displacement_coefficient(self, dt: float) -> float:
+        """d u^{n+1} / d w: how Dirichlet values of u become values of w."""
+        return self.kinematics(0.0, 0.0, 0.0, 1.0, dt)[0]
+
+    def describe(self) -> str:
+        """Short human-readable description, e.g. ``"newmark(beta=0.25, gamma=0.5)"``."""
+        return self.name
+
+
+class ThetaScheme(TimeScheme):
+    """The theta-scheme; theta = 1/2 is Crank-Nicolson, theta = 1 backward Euler.
+
+    Args:
+        theta: In [0, 1].
+    """
+
+    name = "theta"
+
+    def __init__(self, theta: float = 1.0):
+        if not 0.0 <= theta <= 1.0:
+            raise ValueError(f"theta must lie in [0, 1], got theta={theta!r}")
+        self.theta = float(theta)
+
+    def kinematics(self, u, v, a, w, dt):
+        th = self.theta
+        u1 = u + dt * v + th * (1 - th) * dt**2 * a + th**2 * dt**2 * w
+        v1 = v + (1 - th) * dt * a + th * dt * w
+        return u1, v1, w
+
+    def residual(self, model, w, u, v, a, dt, test):
+        u1, _, a1 = self.kinematics(u, v, a, w, dt)
+        return model.inertia(a1, test) + model.operator(u1, test) - model.load(test)
+
+    def describe(self):
+        return f"theta(theta={self.theta:g})"
+
+
+class CrankNicolson(ThetaScheme):
+    """Crank-Nicolson: the theta-scheme with theta = 1/2."""
+
+    name = "cn"
+
+    def __init__(self):
+        super().__init__(0.5)
+
+    def describe(self):
+        return "cn"
+
+
+class NewmarkScheme(TimeScheme):
+    """Newmark's scheme; (beta, gamma) = (1/4, 1/2) is algebraically Crank-Nicolson.
+
+    Args:
+        beta: In [0, 1/2].
+        gamma: In [0, 1].
+    """
+
+    name = "newmark"
+
+    def __init__(self, beta: float = 0.25, gamma: float = 0.5):
+        if not 0.0 <= beta <= 0.5:
+            raise ValueError(f"Newmark beta must lie in [0, 1/2], got beta={beta!r}")
+        if not 0.0 <= gamma <= 1.0:
+            raise ValueError(f"Newmark gamma must lie in [0, 1], got gamma={gamma!r}")
+        self.beta = float(beta)
+        self.gamma = float(gamma)
+
+    def kinematics(self, u, v, a, w, dt):
+        u1 = u + dt * v + (0.5 - self.beta) * dt**2 * a + self.beta * dt**2 * w
+        v1 = v + (1 - self.gamma) * dt * a + self.gamma * dt * w
+        return u1, v1, w
+
+    def residual(self, model, w, u, v, a, dt, test):
+        u1, _, a1 = self.kinematics(u, v, a, w, dt)
+        return model.inertia(a1, test) + model.operator(u1, test) - model.load(test)
+
+    def describe(self):
+        return f"newmark(beta={self.beta:g}, gamma={self.gamma:g})"
+
+
+class HybridScheme(TimeScheme):
+    """The hybrid Crank-Nicolson/midpoint scheme of Chouly, Hild & Renard.
+
+    The unknown is ``w = a^{n+1/2}``; ``a^{n+1} = 2 w - a^n`` is kept for output only.
+    """
+
+    name = "hybrid"
+
+    def kinematics(self, u, v, a, w, dt):
+        u1 = u + dt * v + dt**2 / 2 * w
+        v1 = v + dt * w
+        return u1, v1, 2 * w - a
+
+    def residual(self, model, w, u, v, a, dt, test):
+        u1, _, _ = self.kinematics(u, v, a, w, dt)
+        return model.inertia(w, test) + model.hybrid_operator(u, u1, test) - model.load(test)
+
+    def equation_time(self, t, dt):
+        return t + dt / 2
+
+
+#: Scheme names accepted by :func:`make_scheme` and the demos' ``--scheme`` flag.
+SCHEMES = ("hybrid", "theta", "newmark", "cn")
+
+
+def make_scheme(name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5) -> TimeScheme:
+    """The scheme called ``name`` (one of :data:`SCHEMES`) with its parameters."""
+    if name == "hybrid":
+        return HybridScheme()
+    if name == "cn":
+        return CrankNicolson()
+    if name == "theta":
+        return ThetaScheme(theta)
+    if name == "newmark":
+        return NewmarkScheme(beta, gamma)
+    raise ValueError(f"unknown scheme {name!r}; choose one of {', '.join(SCHEMES)}")

@@ -1,0 +1,160 @@
+"""A small wrapper around PETSc SNES for F(u) = 0 given as UFL forms.
+
+The pattern is the one of dolfinx's own ``test_newton.py``: SNES calls back
+into Python to assemble the residual and the Jacobian with ``apply_lifting``
+and ``set_bc``, so that Dirichlet conditions hold on every Newton iterate.
+The contact terms are only semismooth (the derivative of ``[x]_+`` is the
+Heaviside function H(x)): SNES's Newton method is then a semismooth Newton.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import Any
+
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+from . import compat
+
+__all__ = ["SNESSolver", "SolverError", "DEFAULT_PETSC_OPTIONS"]
+
+#: Newton with a full step and a direct solve: the semismooth Newton of the talk.
+DEFAULT_PETSC_OPTIONS: dict[str, Any] = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",
+    "snes_rtol": 1.0e-10,
+    "snes_atol": 1.0e-12,
+    "snes_stol": 0.0,
+    "snes_max_it": 50,
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+}
+
+_REASONS = {
+    value: name
+    for name, value in vars(PETSc.SNES.ConvergedReason).items()
+    if not name.startswith("_") and isinstance(value, int)
+}
+_prefix_counter = itertools.count()
+
+
+class SolverError(RuntimeError):
+    """SNES did not converge.
+
+    Attributes:
+        reason: SNES's converged reason (a negative integer).
+        reason_name: Its name, e.g. ``"DIVERGED_MAX_IT"``.
+        iterations: Newton iterations done.
+        residual_norm: The last residual norm.
+    """
+
+    def __init__(self, reason: int, iterations: int, residual_norm: float):
+        self.reason = reason
+        self.reason_name = _REASONS.get(reason, "UNKNOWN")
+        self.iterations = iterations
+        self.residual_norm = residual_norm
+        super().__init__(
+            f"SNES did not converge: {self.reason_name} (reason {reason}) after "
+            f"{iterations} Newton iterations, last residual norm {residual_norm:.6e}"
+        )
+
+
+class SNESSolver:
+    """Solve the nonlinear problem F(u; v) = 0 for all v with PETSc SNES.
+
+    Args:
+        F: The residual, a UFL form linear in the test function.
+        u: The unknown Function; it holds the initial guess and receives the solution.
+        bcs: Dirichlet conditions on ``u``.
+        J: The Jacobian form; ``ufl.derivative(F, u)`` when omitted.
+        petsc_options: PETSc options that override :data:`DEFAULT_PETSC_OPTIONS`.
+            Options set in the PETSc options database under ``options_prefix``
+            (for example ``-nitsche_snes_monitor`` on the command line) win over both.
+        options_prefix: PETSc options prefix of this solver; a unique one when omitted.
+
+    Example:
+        >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
+        >>> iterations = solver.solve()
+    """
+
+    def __init__(
+        self,
+        F: ufl.Form,
+        u: fem.Function,
+        bcs=(),
+        J: ufl.Form | None = None,
+        petsc_options: dict[str, Any] | None = None,
+        options_prefix: str | None = None,
+    ):
+        self.u = u
+        self.bcs = list(bcs)
+        self.F_form = fem.form(F)
+        self.J_form = fem.form(J if J is not None else ufl.derivative(F, u, ufl.TrialFunction(u.function_space)))
+        V = u.function_space
+        self._b = compat.create_vector(V)
+        self._x = compat.create_vector(V)
+        self._A = compat.create_matrix(self.J_form)
+
+        comm = V.mesh.comm
+        self.snes = PETSc.SNES().create(comm)
+        self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
+        self.snes.setOptionsPrefix(self.options_prefix)
+        self._set_options({**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})})
+        compat.set_divergence_tolerance(self.snes, -1.0)  # contact residuals may jump
+        self.snes.setFunction(self._assemble_residual, self._b)
+        self.snes.setJacobian(self._assemble_jacobian, self._A)
+        self.snes.setFromOptions()
+        self.snes.getKSP().setFromOptions()
+
+    def _set_options(self, options: dict[str, Any]) -> None:
+        database = PETSc.Options()
+        for key, value in options.items():
+            name = f"{self.options_prefix}{key}"
+            if database.hasName(name):  # set by the user on the command line
+                continue
+            database[name] = "" if value is None else value
+
+    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        x.copy(compat.petsc_vector(self.u))
+        self.u.x.scatter_forward()
+        with b.localForm() as b_local:
+            b_local.set(0.0)
+        fem_petsc.assemble_vector(b, self.F_form)
+        compat.apply_lifting(b, self.J_form, self.bcs, x, -1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        compat.set_bc(b, self.bcs, x, -1.0)
+
+    def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
+        A.zeroEntries()
+        fem_petsc.assemble_matrix(A, self.J_form, self.bcs)
+        A.assemble()
+
+    def solve(self) -> int:
+        """Run SNES from the current value of ``u``.
+
+        Returns:
+            The number of Newton iterations.
+
+        Raises:
+            SolverError: SNES diverged; the message names the reason and the last
+                residual norm. ``u`` then holds the last Newton iterate.
+        """
+        u_vec = compat.petsc_vector(self.u)
+        u_vec.copy(self._x)
+        self.snes.solve(None, self._x)
+        reason = self.snes.getConvergedReason()
+        iterations = self.snes.getIterationNumber()
+        self._x.copy(u_vec)
+        self.u.x.scatter_forward()
+        if reason <= 0:
+            raise SolverError(reason, iterations, self.snes.getFunctionNorm())
+        return iterations
+
+    def destroy(self) -> None:
+        """Free the PETSc objects (collective)."""
+        for obj in (self.snes, self._A, self._b, self._x):
+            obj.destroy()
