@@ -77,7 +77,7 @@ def dofmap_array(V) -> np.ndarray:
 
 def geometry_dofmap(mesh) -> np.ndarray:
     """The cell-to-geometry-node map of ``mesh`` as a 2D array (num_cells, nodes_per_cell)."""
-    dofs = mesh.geometry.dofmap
+    dofs = _first_of(mesh.geometry, "dofmaps", "dofmap")
     if hasattr(dofs, "array") and not isinstance(dofs, np.ndarray):  # AdjacencyList (<= 0.7)
         num_cells = len(dofs.offsets) - 1
         return dofs.array.reshape(num_cells, -1)
@@ -86,10 +86,15 @@ def geometry_dofmap(mesh) -> np.ndarray:
 
 def geometry_degree(mesh) -> int:
     """Polynomial degree of the mesh geometry (2 for a second-order gmsh mesh)."""
-    cmap = mesh.geometry.cmap
-    if callable(cmap):  # >= 0.10 with several coordinate maps: geometry.cmap() is not a thing
-        cmap = cmap()
-    return int(cmap.degree)
+    return int(_first_of(mesh.geometry, "cmaps", "cmap").degree)
+
+
+def _first_of(geometry, plural: str, singular: str):
+    """The first of a geometry's dofmaps/cmaps (>= 0.10 has several), or its single one."""
+    if hasattr(geometry, plural):
+        items = getattr(geometry, plural)
+        return items(0) if callable(items) else items[0]
+    return getattr(geometry, singular)
 
 
 def cell_name(mesh) -> str:
@@ -146,10 +151,11 @@ _LIFTING_SCALE = _scale_keyword(fem_petsc.apply_lifting)
 
 
 def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> None:
-    """Set SNES's divergence tolerance (-1 disables the test).
+    """Set SNES's divergence tolerance: SNES stops when ||F|| > dtol ||F_0||.
 
     petsc4py >= 3.20 has a setter; before, only the options database knows it.
-    Call before ``snes.setFromOptions()``.
+    The value -1 meant "no test" up to PETSc 3.21 and "default" after, so to
+    switch the test off pass a huge number instead. Call before ``setFromOptions``.
     """
     if hasattr(snes, "setDivergenceTolerance"):
         snes.setDivergenceTolerance(dtol)
@@ -192,16 +198,22 @@ def gmsh_model_to_mesh(model, comm, rank: int, gdim: int):
 
 
 def read_gmsh_file(filename: str, comm, rank: int, gdim: int):
-    """Read a ``.msh`` file into ``(mesh, cell_tags, facet_tags)`` on every rank."""
-    import dolfinx.io
+    """Read a ``.msh`` file on rank ``rank`` into ``(mesh, cell_tags, facet_tags)`` on all ranks.
 
-    module = getattr(dolfinx.io, "gmsh", None)
-    if module is None or not hasattr(module, "read_from_msh"):
-        module = _import_gmshio()
-    result = module.read_from_msh(filename, comm, rank, gdim=gdim)
-    if hasattr(result, "mesh"):
-        return result.mesh, result.cell_tags, result.facet_tags
-    return result[0], result[1], result[2]
+    dolfinx's own ``read_from_msh`` fails in 0.5.2 (it returns an undefined
+    name), so the file is merged into a gmsh model here on every version.
+    """
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        if comm.rank == rank:
+            gmsh.model.add("nitsche_dolfinx_read")
+            gmsh.merge(str(filename))
+        return gmsh_model_to_mesh(gmsh.model, comm, rank, gdim)
+    finally:
+        gmsh.finalize()
 
 
 def _import_gmshio():

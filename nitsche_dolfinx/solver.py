@@ -102,20 +102,29 @@ class SNESSolver:
         self.snes = PETSc.SNES().create(comm)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         self.snes.setOptionsPrefix(self.options_prefix)
-        self._set_options({**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})})
-        compat.set_divergence_tolerance(self.snes, -1.0)  # contact residuals may jump
         self.snes.setFunction(self._assemble_residual, self._b)
         self.snes.setJacobian(self._assemble_jacobian, self._A)
-        self.snes.setFromOptions()
-        self.snes.getKSP().setFromOptions()
+        compat.set_divergence_tolerance(self.snes, 1.0e300)  # contact residuals may jump
+        inserted = self._insert_options({**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})})
+        try:
+            self.snes.setFromOptions()
+            self.snes.getKSP().setFromOptions()
+        finally:
+            # the database is global and bounded: take our entries out again
+            for name in inserted:
+                PETSc.Options().delValue(name)
 
-    def _set_options(self, options: dict[str, Any]) -> None:
+    def _insert_options(self, options: dict[str, Any]) -> list[str]:
+        """Put ``options`` in the database under our prefix, except those the user set there."""
         database = PETSc.Options()
+        inserted = []
         for key, value in options.items():
             name = f"{self.options_prefix}{key}"
-            if database.hasName(name):  # set by the user on the command line
+            if database.hasName(name):
                 continue
             database[name] = "" if value is None else value
+            inserted.append(name)
+        return inserted
 
     def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)

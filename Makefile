@@ -1,0 +1,36 @@
+# The two commands of the README: `make demo` and `make test`.
+# Both first run scripts/setup.sh, which installs whatever is missing (once).
+
+SHELL := /bin/bash
+NP ?= 2
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+export OMPI_MCA_rmaps_base_oversubscribe := 1
+export MPLBACKEND := Agg
+PY = $(shell cat .python-path)
+
+.PHONY: setup demo test test-serial test-mpi lint clean
+
+setup:
+	@scripts/setup.sh > .python-path.tmp && tail -n 1 .python-path.tmp > .python-path && rm -f .python-path.tmp
+
+# The main job: the paper's experiments that exist so far.
+demo: setup
+	$(PY) demos/bar_1d.py --out out/bar_1d
+
+# The suite serially, then the MPI tests under mpirun -n $(NP).
+test: setup
+	$(MAKE) --no-print-directory test-serial test-mpi
+
+test-serial:
+	$(PY) -m pytest -q tests
+
+test-mpi:
+	mpirun -n $(NP) $(PY) -m pytest -q -m mpi -p no:cacheprovider tests
+
+lint:
+	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks
+	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks
+
+clean:
+	rm -rf out .pytest_cache .python-path .setup-stamp

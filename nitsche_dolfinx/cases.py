@@ -1,0 +1,55 @@
+"""The test cases of SPEC section 5, ready to run: used by the demos, tests and benchmarks."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+from .diagnostics import BoundaryAverage
+from .material import Material
+from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
+from .obstacles import PlaneObstacle
+from .problem import ContactProblem
+
+__all__ = ["BAR_COLUMNS", "add_bar_probes", "bar_problem"]
+
+#: Columns of the bar demo's ``history.csv`` (SPEC section 6).
+BAR_COLUMNS = (
+    "t",
+    "u_contact",
+    "v_contact",
+    "sigma_contact",
+    "energy",
+    "energy_theta",
+    "newton_iterations",
+)
+
+
+def bar_problem(
+    nx: int = 100,
+    degree: int = 1,
+    gamma0: float = 1e-6,
+    nitsche_theta: float = 1.0,
+    comm=MPI.COMM_WORLD,
+) -> ContactProblem:
+    """The 1D bar with multiple impacts: (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0,
+    u0 = 1/2 - x/2, v0 = 0."""
+    mesh, tags = bar_mesh(nx, comm=comm)
+    problem = ContactProblem(
+        mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree=degree,
+        gamma0=gamma0, nitsche_theta=nitsche_theta,
+    )
+    problem.add_dirichlet(BAR_CLAMPED, 0.0)
+    problem.add_obstacle(PlaneObstacle(point=[0.0], normal=[1.0]), BAR_CONTACT)
+    problem.set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)
+    return problem
+
+
+def add_bar_probes(simulation) -> None:
+    """History columns at x = 0: ``u_contact``, ``v_contact`` and ``sigma_contact`` (lambda_h)."""
+    problem = simulation.problem
+    contact = problem.contacts[0]
+    ds = problem.ds(BAR_CONTACT)
+    mesh = problem.mesh
+    simulation.add_probe("u_contact", BoundaryAverage(mesh, simulation.u[0], ds))
+    simulation.add_probe("v_contact", BoundaryAverage(mesh, simulation.v[0], ds))
+    simulation.add_probe("sigma_contact", BoundaryAverage(mesh, contact.pressure(simulation.u), ds))

@@ -1,0 +1,70 @@
+"""The SNES wrapper on a nonlinear problem with a known solution, serially and under MPI."""
+
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem, mesh
+from mpi4py import MPI
+
+from nitsche_dolfinx import SNESSolver, SolverError, compat
+
+
+def _nonlinear_poisson(comm):
+    """-div((1 + u^2) grad u) = f with exact solution u = 1 + x + 2y (in P1, so recovered exactly)."""
+    msh = mesh.create_unit_square(comm, 8, 8)
+    V = compat.function_space(msh, "Lagrange", 1)
+    x = ufl.SpatialCoordinate(msh)
+    u_exact = 1 + x[0] + 2 * x[1]
+    f = -ufl.div((1 + u_exact**2) * ufl.grad(u_exact))
+    u, v = fem.Function(V), ufl.TestFunction(V)
+    F = ufl.inner((1 + u**2) * ufl.grad(u), ufl.grad(v)) * ufl.dx - f * v * ufl.dx
+    msh.topology.create_connectivity(1, 2)
+    facets = mesh.locate_entities_boundary(msh, 1, lambda x: np.full(x.shape[1], True))
+    g = fem.Function(V)
+    g.interpolate(lambda x: 1 + x[0] + 2 * x[1])
+    bc = fem.dirichletbc(g, fem.locate_dofs_topological(V, 1, facets))
+    error = fem.form((u - u_exact) ** 2 * ufl.dx)
+    return F, u, [bc], error
+
+
+@pytest.mark.mpi
+def test_snes_recovers_exact_solution():
+    F, u, bcs, error = _nonlinear_poisson(MPI.COMM_WORLD)
+    solver = SNESSolver(F, u, bcs)
+    iterations = solver.solve()
+    assert 2 <= iterations <= 10  # genuinely nonlinear, and Newton converges fast
+    comm = MPI.COMM_WORLD
+    l2 = np.sqrt(comm.allreduce(fem.assemble_scalar(error), op=MPI.SUM))
+    assert l2 < 1e-10
+    solver.destroy()
+
+
+@pytest.mark.mpi
+def test_snes_failure_names_reason_and_residual():
+    F, u, bcs, _ = _nonlinear_poisson(MPI.COMM_WORLD)
+    solver = SNESSolver(F, u, bcs, petsc_options={"snes_max_it": 1, "snes_rtol": 1e-14, "snes_atol": 1e-300})
+    with pytest.raises(SolverError) as info:
+        solver.solve()
+    message = str(info.value)
+    assert "DIVERGED_MAX_IT" in message
+    assert "residual norm" in message
+    assert info.value.reason < 0 and info.value.iterations == 1
+    assert info.value.residual_norm > 0
+    solver.destroy()
+
+
+def test_petsc_options_prefix_overrides_defaults():
+    from petsc4py import PETSc
+
+    F, u, bcs, _ = _nonlinear_poisson(MPI.COMM_SELF)
+    PETSc.Options()["mytest_snes_max_it"] = 1
+    try:
+        solver = SNESSolver(F, u, bcs, options_prefix="mytest_")
+        assert solver.snes.getTolerances()[3] == 1
+        solver.destroy()
+    finally:
+        PETSc.Options().delValue("mytest_snes_max_it")
+    solver = SNESSolver(F, u, bcs, petsc_options={"snes_max_it": 7})
+    assert solver.snes.getTolerances()[3] == 7
+    assert solver.snes.getKSP().getPC().getType() == "lu"
+    solver.destroy()
