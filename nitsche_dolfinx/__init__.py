@@ -15,6 +15,7 @@ dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
 """
 
 from .contact import NitscheContact, hybrid_contact_force, positive_part
+from .diagnostics import BoundaryAverage
 from .material import Material
 from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
 from .obstacles import PlaneObstacle, SignedDistanceObstacle
@@ -35,6 +36,7 @@ __version__ = "0.1.0"
 __all__ = [
     "BAR_CLAMPED",
     "BAR_CONTACT",
+    "BoundaryAverage",
     "ContactProblem",
     "CrankNicolson",
     "HISTORY_COLUMNS",

@@ -37,7 +37,7 @@ from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
 from .output import HistoryWriter, SolutionWriter, ensure_directory
 from .schemes import TimeScheme
-from .solver import SNESSolver
+from .solver import SNESSolver, SolverError
 
 __all__ = ["ContactProblem", "Simulation", "HISTORY_COLUMNS"]
 
@@ -112,8 +112,10 @@ class ContactProblem:
         nitsche_theta: float = 1.0,
         friction: float = 0.0,
     ):
-        if not gamma0 > 0:
+        if not (np.isfinite(gamma0) and gamma0 > 0):
             raise ValueError(f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}")
+        if not np.isfinite(nitsche_theta):
+            raise ValueError(f"the Nitsche variant must be finite, got nitsche_theta={nitsche_theta!r}")
         if friction != 0.0:
             raise NotImplementedError(
                 f"friction={friction!r}: Coulomb friction is not implemented yet; use friction=0"
@@ -253,9 +255,9 @@ class Simulation:
         petsc_options: dict[str, Any] | None = None,
         progress: bool = False,
     ):
-        if not dt > 0:
+        if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"the time step must be positive, got dt={dt!r}")
-        if not t_end >= dt:
+        if not (np.isfinite(t_end) and t_end >= dt):
             raise ValueError(f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}")
         self.problem = problem
         self.scheme = scheme
@@ -347,7 +349,7 @@ class Simulation:
         """Advance one time step; returns the Newton iterations."""
         start = time.perf_counter()
         problem, scheme, dt = self.problem, self.scheme, self.dt
-        t_new = self.t + dt
+        t_new = (self.step_index + 1) * dt  # no drift from adding dt up
         problem.set_time(scheme.equation_time(self.t, dt))
         if self._bc_dofs:
             u_free, _, _ = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, 0.0, dt)
@@ -355,7 +357,11 @@ class Simulation:
             self._set_dirichlet(target, t_new)
             self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
         self.w.x.array[:] = self.a.x.array  # initial guess: the last acceleration
-        iterations = self.solver.solve()
+        try:
+            iterations = self.solver.solve()
+        except SolverError as error:
+            error.add_context(step=self.step_index + 1, t=t_new)
+            raise
         u1, v1, a1 = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt)
         self.u.x.array[:] = u1
         self.v.x.array[:] = v1

@@ -49,6 +49,8 @@ class SolverError(RuntimeError):
         reason_name: Its name, e.g. ``"DIVERGED_MAX_IT"``.
         iterations: Newton iterations done.
         residual_norm: The last residual norm.
+        step: The time step that failed, when raised by a simulation (else None).
+        t: The time that step was heading for (else None).
     """
 
     def __init__(self, reason: int, iterations: int, residual_norm: float):
@@ -56,10 +58,21 @@ class SolverError(RuntimeError):
         self.reason_name = _REASONS.get(reason, "UNKNOWN")
         self.iterations = iterations
         self.residual_norm = residual_norm
-        super().__init__(
-            f"SNES did not converge: {self.reason_name} (reason {reason}) after "
-            f"{iterations} Newton iterations, last residual norm {residual_norm:.6e}"
+        self.step = None
+        self.t = None
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
+        return (
+            f"{where}SNES did not converge: {self.reason_name} (reason {self.reason}) after "
+            f"{self.iterations} Newton iterations, last residual norm {self.residual_norm:.6e}"
         )
+
+    def add_context(self, step: int, t: float) -> None:
+        """Record the time step and time at which the solve failed (they join the message)."""
+        self.step, self.t = step, t
+        self.args = (self._message(),)
 
 
 class SNESSolver:

@@ -157,3 +157,35 @@ def test_parallel_history_matches_serial(scheme, t_end):
         # ten ulps of u (about 1e-15) divided by gamma_h
         atol = 1e-15 / gamma_h if column == "sigma_contact" else 1e-10
         assert np.allclose(parallel[column], serial[column], rtol=1e-10, atol=atol), column
+
+
+def test_solver_failure_names_step_and_time():
+    from nitsche_dolfinx import SolverError
+
+    problem = bar_problem(nx=20)
+    sim = Simulation(problem, HybridScheme(), dt=0.1, t_end=2.0,
+                     petsc_options={"snes_max_it": 1, "snes_rtol": 1e-15, "snes_atol": 1e-300})
+    with pytest.raises(SolverError) as info:
+        sim.run()
+    # free flight is linear (one Newton step suffices); the first contact step fails
+    error = info.value
+    assert 10 <= error.step <= 12 and error.t == pytest.approx(0.1 * error.step)
+    assert f"at step {error.step} (t = {error.t:.6g})" in str(error)
+    assert "DIVERGED_MAX_IT" in str(error)
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [({"dt": -0.1}, "dt=-0.1"), ({"dt": 0.1, "t_end": 0.05}, "t_end=0.05"),
+     ({"dt": 0.1, "t_end": float("inf")}, "t_end=inf")],
+)
+def test_bad_time_parameters_are_named(kwargs, name):
+    problem = bar_problem(nx=10)
+    kwargs.setdefault("t_end", 1.0)
+    with pytest.raises(ValueError, match=name):
+        Simulation(problem, HybridScheme(), **kwargs)
+
+
+def test_time_levels_do_not_drift():
+    history = run_bar(HybridScheme(), t_end=6.0, nx=10)
+    assert history["t"][-1] == 6.0
