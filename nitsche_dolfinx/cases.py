@@ -35,8 +35,12 @@ def bar_problem(
     u0 = 1/2 - x/2, v0 = 0."""
     mesh, tags = bar_mesh(nx, comm=comm)
     problem = ContactProblem(
-        mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree=degree,
-        gamma0=gamma0, nitsche_theta=nitsche_theta,
+        mesh,
+        tags,
+        Material(E=1.0, nu=0.0, rho=1.0),
+        degree=degree,
+        gamma0=gamma0,
+        nitsche_theta=nitsche_theta,
     )
     problem.add_dirichlet(BAR_CLAMPED, 0.0)
     problem.add_obstacle(PlaneObstacle(point=[0.0], normal=[1.0]), BAR_CONTACT)

@@ -94,7 +94,9 @@ class NitscheContact:
 
     def projection(self, u):
         """P_gamma(u)."""
-        return nitsche_projection(self.normal_displacement(u), self.gap, self.sigma_n(u), self.gamma_h)
+        return nitsche_projection(
+            self.normal_displacement(u), self.gap, self.sigma_n(u), self.gamma_h
+        )
 
     def test_projection(self, v):
         """P_Thgamma(v)."""
@@ -122,9 +124,7 @@ class NitscheContact:
 
     def residual(self, u, v):
         """Boundary terms of the Nitsche operator B(u)(v) at one time level."""
-        return self.consistency_term(u, v) + self.contact_term(
-            positive_part(self.projection(u)), v
-        )
+        return self.consistency_term(u, v) + self.contact_term(positive_part(self.projection(u)), v)
 
     def hybrid_residual(self, u_old, u_new, v):
         """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi."""

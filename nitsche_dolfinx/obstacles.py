@@ -56,7 +56,9 @@ class PlaneObstacle(Obstacle):
         self.unit_normal = normal / length
 
     def distance(self, x):
-        return ufl.dot(x - ufl.as_vector(self.point.tolist()), ufl.as_vector(self.unit_normal.tolist()))
+        return ufl.dot(
+            x - ufl.as_vector(self.point.tolist()), ufl.as_vector(self.unit_normal.tolist())
+        )
 
     def normal(self, x):
         return ufl.as_vector((-self.unit_normal).tolist())

@@ -113,9 +113,13 @@ class ContactProblem:
         friction: float = 0.0,
     ):
         if not (np.isfinite(gamma0) and gamma0 > 0):
-            raise ValueError(f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}")
+            raise ValueError(
+                f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}"
+            )
         if not np.isfinite(nitsche_theta):
-            raise ValueError(f"the Nitsche variant must be finite, got nitsche_theta={nitsche_theta!r}")
+            raise ValueError(
+                f"the Nitsche variant must be finite, got nitsche_theta={nitsche_theta!r}"
+            )
         if friction != 0.0:
             raise NotImplementedError(
                 f"friction={friction!r}: Coulomb friction is not implemented yet; use friction=0"
@@ -150,8 +154,13 @@ class ContactProblem:
         tags = self.facet_tags
         found = tags.indices[tags.values == tag].astype(np.int32) if tags is not None else []
         if self.mesh.comm.allreduce(len(found), op=MPI.SUM) == 0:
-            present = sorted(set(self.mesh.comm.allreduce(
-                [] if tags is None else np.unique(tags.values).tolist(), op=MPI.SUM)))
+            present = sorted(
+                set(
+                    self.mesh.comm.allreduce(
+                        [] if tags is None else np.unique(tags.values).tolist(), op=MPI.SUM
+                    )
+                )
+            )
             raise ValueError(f"facet tag {tag!r} is not in the mesh (its facet tags are {present})")
         return np.asarray(found, dtype=np.int32)
 
@@ -159,7 +168,9 @@ class ContactProblem:
         """Prescribe the displacement on the facets ``tag``: a vector (or scalar in 1D),
         or a function of t returning one."""
         self.facets(tag)
-        self.dirichlet.append((tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value")))
+        self.dirichlet.append(
+            (tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value"))
+        )
 
     def add_body_force(self, value) -> None:
         """Add a volume force f: a vector, or a function of t returning one."""
@@ -168,12 +179,16 @@ class ContactProblem:
     def add_traction(self, tag: int, value) -> None:
         """Add a Neumann traction g_N on the facets ``tag``: a vector, or a function of t."""
         self.facets(tag)
-        self._tractions.append((tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "traction")))
+        self._tractions.append(
+            (tag, _TimeDependentValue(self.mesh, value, (self.gdim,), "traction"))
+        )
 
     def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
         self.facets(tag)
-        contact = NitscheContact(obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta)
+        contact = NitscheContact(
+            obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta
+        )
         self.contacts.append(contact)
         self.contact_tags.append(tag)
         return contact
@@ -242,7 +257,8 @@ class Simulation:
         scheme: The time scheme.
         dt: Time step tau (> 0).
         t_end: Final time T (>= dt).
-        petsc_options: PETSc options for the step's SNES (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+        petsc_options: PETSc options for the step's SNES
+            (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
         progress: Print one line per step on rank 0.
     """
 
@@ -258,7 +274,9 @@ class Simulation:
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"the time step must be positive, got dt={dt!r}")
         if not (np.isfinite(t_end) and t_end >= dt):
-            raise ValueError(f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}")
+            raise ValueError(
+                f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}"
+            )
         self.problem = problem
         self.scheme = scheme
         self.dt = float(dt)
@@ -352,7 +370,9 @@ class Simulation:
         t_new = (self.step_index + 1) * dt  # no drift from adding dt up
         problem.set_time(scheme.equation_time(self.t, dt))
         if self._bc_dofs:
-            u_free, _, _ = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, 0.0, dt)
+            u_free, _, _ = scheme.kinematics(
+                self.u.x.array, self.v.x.array, self.a.x.array, 0.0, dt
+            )
             target = u_free.copy()
             self._set_dirichlet(target, t_new)
             self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
@@ -362,7 +382,9 @@ class Simulation:
         except SolverError as error:
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
-        u1, v1, a1 = scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt)
+        u1, v1, a1 = scheme.kinematics(
+            self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt
+        )
         self.u.x.array[:] = u1
         self.v.x.array[:] = v1
         self.a.x.array[:] = a1
@@ -405,8 +427,11 @@ class Simulation:
                 xdmf = SolutionWriter(
                     os.path.join(out, "solution.xdmf"),
                     self.problem.mesh,
-                    {"displacement": (self.u, shape), "velocity": (self.v, shape),
-                     "von_mises": (self.von_mises(), ())},
+                    {
+                        "displacement": (self.u, shape),
+                        "velocity": (self.v, shape),
+                        "von_mises": (self.von_mises(), ()),
+                    },
                 )
         records = []
         try:
@@ -432,7 +457,8 @@ class Simulation:
             xdmf.write(self.t)
         if self.progress and self.comm.rank == 0:
             print(
-                f"step {self.step_index:5d}  t = {self.t:9.4f}  newton = {values['newton_iterations']:2d}"
-                f"  E = {values['energy']: .10e}  contact force = {values['contact_force']:.4e}",
+                f"step {self.step_index:5d}  t = {self.t:9.4f}"
+                f"  newton = {values['newton_iterations']:2d}  E = {values['energy']: .10e}"
+                f"  contact force = {values['contact_force']:.4e}",
                 flush=True,
             )

@@ -158,7 +158,9 @@ class HybridScheme(TimeScheme):
 SCHEMES = ("hybrid", "theta", "newmark", "cn")
 
 
-def make_scheme(name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5) -> TimeScheme:
+def make_scheme(
+    name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5
+) -> TimeScheme:
     """The scheme called ``name`` (one of :data:`SCHEMES`) with its parameters."""
     if name == "hybrid":
         return HybridScheme()

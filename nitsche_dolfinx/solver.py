@@ -105,7 +105,9 @@ class SNESSolver:
         self.u = u
         self.bcs = list(bcs)
         self.F_form = fem.form(F)
-        self.J_form = fem.form(J if J is not None else ufl.derivative(F, u, ufl.TrialFunction(u.function_space)))
+        self.J_form = fem.form(
+            J if J is not None else ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
+        )
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)

@@ -163,8 +163,13 @@ def test_solver_failure_names_step_and_time():
     from nitsche_dolfinx import SolverError
 
     problem = bar_problem(nx=20)
-    sim = Simulation(problem, HybridScheme(), dt=0.1, t_end=2.0,
-                     petsc_options={"snes_max_it": 1, "snes_rtol": 1e-15, "snes_atol": 1e-300})
+    sim = Simulation(
+        problem,
+        HybridScheme(),
+        dt=0.1,
+        t_end=2.0,
+        petsc_options={"snes_max_it": 1, "snes_rtol": 1e-15, "snes_atol": 1e-300},
+    )
     with pytest.raises(SolverError) as info:
         sim.run()
     # free flight is linear (one Newton step suffices); the first contact step fails
@@ -176,8 +181,11 @@ def test_solver_failure_names_step_and_time():
 
 @pytest.mark.parametrize(
     "kwargs, name",
-    [({"dt": -0.1}, "dt=-0.1"), ({"dt": 0.1, "t_end": 0.05}, "t_end=0.05"),
-     ({"dt": 0.1, "t_end": float("inf")}, "t_end=inf")],
+    [
+        ({"dt": -0.1}, "dt=-0.1"),
+        ({"dt": 0.1, "t_end": 0.05}, "t_end=0.05"),
+        ({"dt": 0.1, "t_end": float("inf")}, "t_end=inf"),
+    ],
 )
 def test_bad_time_parameters_are_named(kwargs, name):
     problem = bar_problem(nx=10)

@@ -145,7 +145,9 @@ def test_gmsh_model_to_mesh(order):
     comm = msh.comm
     assert comm.allreduce(np.count_nonzero(cell_tags.values == 7), op=MPI.SUM) > 0
     assert set(comm.allreduce(facet_tags.values.tolist(), op=MPI.SUM)) == {3}
-    area = comm.allreduce(fem.assemble_scalar(fem.form(fem.Constant(msh, 1.0) * ufl.dx)), op=MPI.SUM)
+    area = comm.allreduce(
+        fem.assemble_scalar(fem.form(fem.Constant(msh, 1.0) * ufl.dx)), op=MPI.SUM
+    )
     assert area == pytest.approx(np.pi, rel=0.05 if order == 1 else 2e-3)
 
 

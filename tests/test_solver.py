@@ -10,7 +10,7 @@ from nitsche_dolfinx import SNESSolver, SolverError, compat
 
 
 def _nonlinear_poisson(comm):
-    """-div((1 + u^2) grad u) = f with exact solution u = 1 + x + 2y (in P1, so recovered exactly)."""
+    """-div((1 + u^2) grad u) = f with exact solution u = 1 + x + 2y (in P1: recovered exactly)."""
     msh = mesh.create_unit_square(comm, 8, 8)
     V = compat.function_space(msh, "Lagrange", 1)
     x = ufl.SpatialCoordinate(msh)
@@ -42,7 +42,9 @@ def test_snes_recovers_exact_solution():
 @pytest.mark.mpi
 def test_snes_failure_names_reason_and_residual():
     F, u, bcs, _ = _nonlinear_poisson(MPI.COMM_WORLD)
-    solver = SNESSolver(F, u, bcs, petsc_options={"snes_max_it": 1, "snes_rtol": 1e-14, "snes_atol": 1e-300})
+    solver = SNESSolver(
+        F, u, bcs, petsc_options={"snes_max_it": 1, "snes_rtol": 1e-14, "snes_atol": 1e-300}
+    )
     with pytest.raises(SolverError) as info:
         solver.solve()
     message = str(info.value)

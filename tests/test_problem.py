@@ -1,0 +1,103 @@
+"""ContactProblem and Simulation in 2D and 3D: initial acceleration, impact energy, MPI."""
+
+import numpy as np
+import pytest
+from dolfinx import mesh
+from mpi4py import MPI
+
+from nitsche_dolfinx import (
+    ContactProblem,
+    CrankNicolson,
+    HybridScheme,
+    Material,
+    PlaneObstacle,
+    Simulation,
+)
+from nitsche_dolfinx.meshes import tag_facets
+
+BOTTOM, TOP = 1, 2
+
+
+def block(dim, comm, n=4):
+    if dim == 2:
+        msh = mesh.create_unit_square(comm, n, n)
+    else:
+        msh = mesh.create_unit_cube(comm, n, n, n)
+    tags = tag_facets(
+        msh,
+        {BOTTOM: lambda x: np.isclose(x[dim - 1], 0.0), TOP: lambda x: np.isclose(x[dim - 1], 1.0)},
+    )
+    return msh, tags
+
+
+def up(dim, value):
+    vector = np.zeros(dim)
+    vector[dim - 1] = value
+    return vector
+
+
+def dropped_block(dim, comm=MPI.COMM_WORLD, gravity=0.0, degree=1, gamma0=1e-4):
+    """A block 0.05 above the ground, falling at speed 1 (gamma0 E = 5e-3: well-posed)."""
+    msh, tags = block(dim, comm)
+    problem = ContactProblem(
+        msh,
+        tags,
+        Material(E=50.0, nu=0.3, rho=1.0),
+        degree=degree,
+        gamma0=gamma0,
+        nitsche_theta=1.0,
+    )
+    problem.add_obstacle(PlaneObstacle(point=up(dim, -0.05), normal=up(dim, 1.0)), BOTTOM)
+    if gravity:
+        problem.add_body_force(up(dim, -gravity))
+    problem.set_initial_conditions(velocity=up(dim, -1.0))
+    return problem
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_consistent_initial_acceleration(dim):
+    """A stress-free body under gravity starts with a0 = f / rho everywhere."""
+    problem = dropped_block(dim, gravity=0.1)
+    problem.set_initial_conditions(displacement=up(dim, 5.0))
+    sim = Simulation(problem, HybridScheme(), dt=0.01, t_end=0.01)
+    a = sim.a.x.array.reshape(-1, dim)
+    assert np.allclose(a[:, dim - 1], -0.1, atol=1e-12)
+    assert np.allclose(a[:, : dim - 1], 0.0, atol=1e-12)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+def test_impact_hybrid_energy_theta_never_grows(dim):
+    problem = dropped_block(dim, gravity=0.5)
+    records = Simulation(problem, HybridScheme(), dt=0.01, t_end=0.3).run()
+    energy_theta = np.array([r["energy_theta"] for r in records])
+    force = np.array([r["contact_force"] for r in records])
+    area = np.array([r["contact_area"] for r in records])
+    assert force.max() > 0 and area.max() == pytest.approx(1.0)  # the whole bottom touched
+    assert np.diff(energy_theta).max() <= 1e-10 * abs(energy_theta[0])
+    penetration = np.array([r["penetration_max"] for r in records])
+    assert penetration[0] == pytest.approx(-0.05)
+    assert penetration.max() < 0.02
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
+def test_parallel_matches_serial_2d(scheme):
+    """Energies, forces and penetration on all ranks equal those of a one-rank run."""
+    columns = (
+        "energy",
+        "energy_theta",
+        "kinetic",
+        "elastic",
+        "potential",
+        "contact_force",
+        "contact_area",
+        "penetration_max",
+    )
+    runs = []
+    for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
+        problem = dropped_block(2, comm=comm, gravity=0.5, degree=2)
+        runs.append(Simulation(problem, scheme, dt=0.01, t_end=0.2).run())
+    for parallel, serial in zip(*runs):
+        for column in columns:
+            assert parallel[column] == pytest.approx(serial[column], rel=1e-10, abs=1e-10), column
