@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from dolfinx import fem
 from dolfinx import mesh as dmesh
@@ -9,7 +11,7 @@ from mpi4py import MPI
 
 from . import compat
 
-__all__ = ["bar_mesh", "cell_diameter", "tag_facets", "BAR_CONTACT", "BAR_CLAMPED"]
+__all__ = ["bar_mesh", "cell_diameter", "load_mesh", "save_mesh", "tag_facets", "BAR_CONTACT", "BAR_CLAMPED"]
 
 _NUM_VERTICES = {
     "interval": 2,
@@ -75,3 +77,98 @@ def bar_mesh(nx: int = 100, length: float = 1.0, comm=MPI.COMM_WORLD):
         },
     )
     return mesh, tags
+
+
+def load_mesh(
+    path: str,
+    gdim: int | None = None,
+    comm=MPI.COMM_WORLD,
+    mesh_name: str = "mesh",
+    facet_tags_name: str = "facet_tags",
+):
+    """Read a mesh and its facet tags from a gmsh ``.msh`` file or an XDMF file.
+
+    In a ``.msh`` file, the physical groups of dimension tdim - 1 become the facet
+    tags (their tag is the physical group's number). An XDMF file must hold the mesh
+    called ``mesh_name`` and the facet tags called ``facet_tags_name``. Rank 0
+    reads a ``.msh`` file and distributes the mesh.
+
+    Args:
+        path: The ``.msh`` or ``.xdmf`` file.
+        gdim: Geometric dimension; from the file when omitted (a ``.msh`` file
+            whose z coordinates are all zero is 2D).
+        comm: The communicator to distribute the mesh over.
+        mesh_name: Name of the mesh in an XDMF file.
+        facet_tags_name: Name of the facet tags in an XDMF file.
+
+    Returns:
+        ``(mesh, facet_tags)``.
+
+    Raises:
+        ValueError: The file is missing, of an unknown kind, or cannot be read.
+    """
+    path = str(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"mesh file {path!r} does not exist")
+    extension = os.path.splitext(path)[1].lower()
+    try:
+        if extension == ".msh":
+            return _load_msh(path, gdim, comm)
+        if extension == ".xdmf":
+            return _load_xdmf(path, comm, mesh_name, facet_tags_name)
+    except ValueError:
+        raise
+    except Exception as error:  # gmsh, HDF5 and dolfinx each raise their own kinds
+        raise ValueError(f"mesh file {path!r} cannot be read: {error}") from error
+    raise ValueError(f"mesh file {path!r}: unknown kind {extension!r} (use .msh or .xdmf)")
+
+
+def _load_msh(path, gdim, comm):
+    if gdim is None:
+        gdim = comm.bcast(_msh_dimension(path) if comm.rank == 0 else None, root=0)
+    mesh, _, facet_tags = compat.read_gmsh_file(path, comm, 0, gdim)
+    if facet_tags is None:
+        raise ValueError(f"mesh file {path!r} has no physical groups on its boundary")
+    return mesh, facet_tags
+
+
+def _msh_dimension(path: str) -> int:
+    """The geometric dimension of a .msh file: 3 if any node has z != 0 or the mesh has
+    volume elements, else 2 if any node has y != 0, else 1."""
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(path)
+        if gmsh.model.getEntities(3):
+            return 3
+        _, coordinates, _ = gmsh.model.mesh.getNodes()
+        xyz = np.asarray(coordinates).reshape(-1, 3)
+        if np.any(xyz[:, 2] != 0):
+            return 3
+        return 2 if gmsh.model.getEntities(2) or np.any(xyz[:, 1] != 0) else 1
+    finally:
+        gmsh.finalize()
+
+
+def _load_xdmf(path, comm, mesh_name, facet_tags_name):
+    from dolfinx.io import XDMFFile
+
+    with XDMFFile(comm, path, "r") as xdmf:
+        mesh = xdmf.read_mesh(name=mesh_name)
+        compat.create_connectivity(mesh, mesh.topology.dim - 1, mesh.topology.dim)
+        facet_tags = compat.read_meshtags(xdmf, mesh, facet_tags_name)
+    return mesh, facet_tags
+
+
+def save_mesh(path: str, mesh, facet_tags, mesh_name: str = "mesh",
+              facet_tags_name: str = "facet_tags") -> None:
+    """Write a mesh and its facet tags to an XDMF file that :func:`load_mesh` reads back."""
+    from dolfinx.io import XDMFFile
+
+    mesh.name = mesh_name
+    facet_tags.name = facet_tags_name
+    with XDMFFile(mesh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        compat.write_meshtags(xdmf, facet_tags, mesh)

@@ -1,0 +1,7 @@
+"""``python -m nitsche_dolfinx run CONFIG.toml``: the same as the ``nitsche-dolfinx`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

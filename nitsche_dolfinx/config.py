@@ -1,0 +1,274 @@
+"""Run descriptions in TOML: the schema, its validation, and the simulation they describe.
+
+A configuration names the mesh, the material, the obstacles, the loads, the
+Nitsche settings, the time scheme and the output::
+
+    [mesh]
+    file = "ring_2d.msh"            # .msh or .xdmf, relative to the TOML file
+    degree = 1
+
+    [material]
+    E = 1000.0                      # or lmbda and mu
+    nu = 0.3
+    rho = 1.0
+
+    [nitsche]
+    gamma0 = 1e-6
+    theta = 1.0                     # the variant Theta
+
+    [scheme]
+    name = "hybrid"                 # hybrid | theta | newmark | cn
+    dt = 0.005
+    t_end = 1.0
+
+    [[obstacle]]
+    type = "plane"
+    point = [0.0, 0.0]
+    normal = [0.0, 1.0]
+    tag = 1
+
+    [body_force]
+    value = [0.0, -9.81]
+
+    [initial]
+    velocity = [0.0, -1.0]
+
+    [output]
+    dir = "out/ring"
+    every = 10
+
+Everything is checked before anything is computed: an unknown key, a value of
+the wrong type or a missing required key raises :class:`ConfigError` with a
+message naming it.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+__all__ = ["ConfigError", "SCHEMA", "build_simulation", "load_config", "validate"]
+
+
+class ConfigError(ValueError):
+    """A configuration file is invalid; the message names the file and the key."""
+
+
+_NUMBER = (int, float)
+_VECTOR = "vector"  # a list of numbers
+
+#: For each table: key -> (expected type, required). Arrays of tables are lists.
+SCHEMA: dict[str, Any] = {
+    "mesh": {"file": (str, True), "degree": (int, False), "gdim": (int, False)},
+    "material": {
+        "E": (_NUMBER, False),
+        "nu": (_NUMBER, False),
+        "lmbda": (_NUMBER, False),
+        "mu": (_NUMBER, False),
+        "rho": (_NUMBER, False),
+    },
+    "nitsche": {"gamma0": (_NUMBER, False), "theta": (_NUMBER, False)},
+    "scheme": {
+        "name": (str, False),
+        "dt": (_NUMBER, True),
+        "t_end": (_NUMBER, True),
+        "theta": (_NUMBER, False),
+        "beta": (_NUMBER, False),
+        "gamma": (_NUMBER, False),
+    },
+    "obstacle": [
+        {
+            "type": (str, False),
+            "point": (_VECTOR, True),
+            "normal": (_VECTOR, True),
+            "tag": (int, True),
+        }
+    ],
+    "dirichlet": [{"tag": (int, True), "value": (_VECTOR, True)}],
+    "traction": [{"tag": (int, True), "value": (_VECTOR, True)}],
+    "body_force": {"value": (_VECTOR, True)},
+    "initial": {"displacement": (_VECTOR, False), "velocity": (_VECTOR, False)},
+    "output": {"dir": (str, False), "every": (int, False)},
+    "petsc": None,  # free-form PETSc options
+}
+_REQUIRED_TABLES = ("mesh", "material", "scheme")
+_TYPE_NAMES = {str: "a string", int: "an integer", _NUMBER: "a number", _VECTOR: "a list of numbers"}
+
+
+def load_config(path: str) -> dict:
+    """Read and validate a TOML configuration.
+
+    Relative file names in it (the mesh, the output folder) are taken relative to
+    the folder of the TOML file.
+
+    Raises:
+        ConfigError: The file is missing, is not TOML, or is invalid.
+    """
+    path = str(path)
+    if not os.path.isfile(path):
+        raise ConfigError(f"{path}: configuration file does not exist")
+    toml = _toml_module()
+    try:
+        with open(path, "rb") as f:
+            config = toml.load(f)
+    except toml.TOMLDecodeError as error:
+        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    validate(config, path)
+    base = os.path.dirname(os.path.abspath(path))
+    config["mesh"]["file"] = os.path.join(base, config["mesh"]["file"])
+    if "dir" in config.get("output", {}):
+        config["output"]["dir"] = os.path.join(base, config["output"]["dir"])
+    if not os.path.isfile(config["mesh"]["file"]):
+        raise ConfigError(f"{path}: [mesh] file {config['mesh']['file']!r} does not exist")
+    return config
+
+
+def _toml_module():
+    try:
+        import tomllib  # Python >= 3.11
+    except ImportError:
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise ConfigError("reading TOML needs Python >= 3.11 or the tomli package") from None
+    return tomllib
+
+
+def validate(config: dict, source: str = "config") -> None:
+    """Check ``config`` against :data:`SCHEMA`; raise :class:`ConfigError` on the first problem."""
+    for table in config:
+        if table not in SCHEMA:
+            raise ConfigError(
+                f"{source}: unknown table [{table}] (known: {', '.join(sorted(SCHEMA))})"
+            )
+    for table in _REQUIRED_TABLES:
+        if table not in config:
+            raise ConfigError(f"{source}: missing required table [{table}]")
+    for table, schema in SCHEMA.items():
+        if table not in config or schema is None:
+            continue
+        value = config[table]
+        if isinstance(schema, list):
+            if not isinstance(value, list):
+                raise ConfigError(f"{source}: [[{table}]] must be an array of tables")
+            for index, item in enumerate(value):
+                _check_table(item, schema[0], f"{source}: [[{table}]] #{index + 1}")
+        else:
+            _check_table(value, schema, f"{source}: [{table}]")
+    if "petsc" in config and not isinstance(config["petsc"], dict):
+        raise ConfigError(f"{source}: [petsc] must be a table of PETSc options")
+    material = config["material"]
+    if not ({"E", "nu"} <= material.keys() or {"lmbda", "mu"} <= material.keys()):
+        raise ConfigError(f"{source}: [material] needs E and nu, or lmbda and mu")
+    for index, obstacle in enumerate(config.get("obstacle", [])):
+        kind = obstacle.get("type", "plane")
+        if kind != "plane":
+            raise ConfigError(
+                f"{source}: [[obstacle]] #{index + 1} type {kind!r} is not known (use 'plane')"
+            )
+
+
+def _check_table(table, schema: dict, where: str) -> None:
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where} must be a table")
+    for key, value in table.items():
+        if key not in schema:
+            raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(schema)})")
+        expected, _ = schema[key]
+        if not _has_type(value, expected):
+            raise ConfigError(
+                f"{where} {key} must be {_TYPE_NAMES[expected]}, got {value!r}"
+            )
+    for key, (_, required) in schema.items():
+        if required and key not in table:
+            raise ConfigError(f"{where} missing required key {key!r}")
+
+
+def _has_type(value, expected) -> bool:
+    if isinstance(value, bool):  # TOML booleans are not numbers
+        return False
+    if expected == _VECTOR:
+        if isinstance(value, _NUMBER):
+            return True
+        return isinstance(value, list) and all(
+            isinstance(x, _NUMBER) and not isinstance(x, bool) for x in value
+        )
+    return isinstance(value, expected)
+
+
+def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
+    """The :class:`~nitsche_dolfinx.problem.Simulation` a validated configuration describes.
+
+    Args:
+        config: A configuration checked by :func:`validate` (e.g. from :func:`load_config`).
+        comm: The communicator (``MPI.COMM_WORLD`` by default).
+        progress: Print one line per step on rank 0.
+        source: Name of the configuration in error messages (its file name).
+
+    Raises:
+        ConfigError: A value is out of range or names a tag absent from the mesh.
+    """
+    from mpi4py import MPI
+
+    from .material import Material
+    from .meshes import load_mesh
+    from .obstacles import PlaneObstacle
+    from .problem import ContactProblem, Simulation
+    from .schemes import make_scheme
+
+    comm = comm or MPI.COMM_WORLD
+    where = "[mesh]"
+    try:
+        mesh_table = config["mesh"]
+        mesh, facet_tags = load_mesh(mesh_table["file"], gdim=mesh_table.get("gdim"), comm=comm)
+        where = "[material]"
+        m = config["material"]
+        rho = m.get("rho", 1.0)
+        if "E" in m:
+            material = Material(E=m["E"], nu=m["nu"], rho=rho)
+        else:
+            material = Material.from_lame(m["lmbda"], m["mu"], rho=rho)
+        where = "[nitsche]"
+        nitsche = config.get("nitsche", {})
+        problem = ContactProblem(
+            mesh,
+            facet_tags,
+            material,
+            degree=mesh_table.get("degree", 1),
+            gamma0=nitsche.get("gamma0", 1e-3),
+            nitsche_theta=nitsche.get("theta", 1.0),
+        )
+        for index, obstacle in enumerate(config.get("obstacle", [])):
+            where = f"[[obstacle]] #{index + 1}"
+            problem.add_obstacle(PlaneObstacle(obstacle["point"], obstacle["normal"]), obstacle["tag"])
+        for index, dirichlet in enumerate(config.get("dirichlet", [])):
+            where = f"[[dirichlet]] #{index + 1}"
+            problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])
+        for index, traction in enumerate(config.get("traction", [])):
+            where = f"[[traction]] #{index + 1}"
+            problem.add_traction(traction["tag"], traction["value"])
+        if "body_force" in config:
+            where = "[body_force]"
+            problem.add_body_force(config["body_force"]["value"])
+        where = "[initial]"
+        initial = config.get("initial", {})
+        problem.set_initial_conditions(
+            displacement=initial.get("displacement"), velocity=initial.get("velocity")
+        )
+        where = "[scheme]"
+        s = config["scheme"]
+        scheme = make_scheme(
+            s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
+        )
+        return Simulation(
+            problem,
+            scheme,
+            dt=s["dt"],
+            t_end=s["t_end"],
+            petsc_options=config.get("petsc"),
+            progress=progress,
+        )
+    except ConfigError:
+        raise
+    except ValueError as error:
+        raise ConfigError(f"{source}: {where} {error}") from None
