@@ -92,7 +92,12 @@ SCHEMA: dict[str, Any] = {
     "petsc": None,  # free-form PETSc options
 }
 _REQUIRED_TABLES = ("mesh", "material", "scheme")
-_TYPE_NAMES = {str: "a string", int: "an integer", _NUMBER: "a number", _VECTOR: "a list of numbers"}
+_TYPE_NAMES = {
+    str: "a string",
+    int: "an integer",
+    _NUMBER: "a number",
+    _VECTOR: "a list of numbers",
+}
 
 
 def load_config(path: str) -> dict:
@@ -176,9 +181,7 @@ def _check_table(table, schema: dict, where: str) -> None:
             raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(schema)})")
         expected, _ = schema[key]
         if not _has_type(value, expected):
-            raise ConfigError(
-                f"{where} {key} must be {_TYPE_NAMES[expected]}, got {value!r}"
-            )
+            raise ConfigError(f"{where} {key} must be {_TYPE_NAMES[expected]}, got {value!r}")
     for key, (_, required) in schema.items():
         if required and key not in table:
             raise ConfigError(f"{where} missing required key {key!r}")
@@ -240,7 +243,9 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
         )
         for index, obstacle in enumerate(config.get("obstacle", [])):
             where = f"[[obstacle]] #{index + 1}"
-            problem.add_obstacle(PlaneObstacle(obstacle["point"], obstacle["normal"]), obstacle["tag"])
+            problem.add_obstacle(
+                PlaneObstacle(obstacle["point"], obstacle["normal"]), obstacle["tag"]
+            )
         for index, dirichlet in enumerate(config.get("dirichlet", [])):
             where = f"[[dirichlet]] #{index + 1}"
             problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])

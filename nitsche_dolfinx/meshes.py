@@ -11,7 +11,15 @@ from mpi4py import MPI
 
 from . import compat
 
-__all__ = ["bar_mesh", "cell_diameter", "load_mesh", "save_mesh", "tag_facets", "BAR_CONTACT", "BAR_CLAMPED"]
+__all__ = [
+    "bar_mesh",
+    "cell_diameter",
+    "load_mesh",
+    "save_mesh",
+    "tag_facets",
+    "BAR_CONTACT",
+    "BAR_CLAMPED",
+]
 
 _NUM_VERTICES = {
     "interval": 2,
@@ -162,8 +170,9 @@ def _load_xdmf(path, comm, mesh_name, facet_tags_name):
     return mesh, facet_tags
 
 
-def save_mesh(path: str, mesh, facet_tags, mesh_name: str = "mesh",
-              facet_tags_name: str = "facet_tags") -> None:
+def save_mesh(
+    path: str, mesh, facet_tags, mesh_name: str = "mesh", facet_tags_name: str = "facet_tags"
+) -> None:
     """Write a mesh and its facet tags to an XDMF file that :func:`load_mesh` reads back."""
     from dolfinx.io import XDMFFile
 

@@ -37,7 +37,7 @@ from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
 from .output import HistoryWriter, SolutionWriter, ensure_directory
 from .schemes import TimeScheme
-from .solver import SNESSolver, SolverError
+from .solver import SNESSolver, SolverError, split_cell_integrals
 
 __all__ = ["ContactProblem", "Simulation", "HISTORY_COLUMNS"]
 
@@ -260,6 +260,9 @@ class Simulation:
         petsc_options: PETSc options for the step's SNES
             (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
         progress: Print one line per step on rank 0.
+        reuse_jacobian: Assemble the constant bulk Jacobian once and re-factorise only
+            when the contact part of the Jacobian changes (the default); False
+            re-assembles and re-factorises at every Newton iteration.
     """
 
     def __init__(
@@ -270,6 +273,7 @@ class Simulation:
         t_end: float,
         petsc_options: dict[str, Any] | None = None,
         progress: bool = False,
+        reuse_jacobian: bool = True,
     ):
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"the time step must be positive, got dt={dt!r}")
@@ -305,7 +309,13 @@ class Simulation:
         test = ufl.TestFunction(V)
         dt_c = fem.Constant(problem.mesh, self.dt)
         F = scheme.residual(problem, self.w, self.u, self.v, self.a, dt_c, test)
-        self.solver = SNESSolver(F, self.w, bcs, petsc_options=petsc_options)
+        # The bulk is linear elastodynamics: its Jacobian (the cell integrals) is constant,
+        # and only the contact terms on Gamma_C change it.
+        J = ufl.derivative(F, self.w, ufl.TrialFunction(V))
+        constant_jacobian, _ = split_cell_integrals(J) if reuse_jacobian else (None, None)
+        self.solver = SNESSolver(
+            F, self.w, bcs, J=J, petsc_options=petsc_options, constant_jacobian=constant_jacobian
+        )
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._petsc_options = petsc_options
         self._initialize()

@@ -19,7 +19,7 @@ from petsc4py import PETSc
 
 from . import compat
 
-__all__ = ["SNESSolver", "SolverError", "DEFAULT_PETSC_OPTIONS"]
+__all__ = ["SNESSolver", "SolverError", "DEFAULT_PETSC_OPTIONS", "split_cell_integrals"]
 
 #: Newton with a full step and a direct solve: the semismooth Newton of the talk.
 DEFAULT_PETSC_OPTIONS: dict[str, Any] = {
@@ -75,6 +75,13 @@ class SolverError(RuntimeError):
         self.args = (self._message(),)
 
 
+def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form, ufl.Form | None]:
+    """Split a form into its cell integrals and the rest (facet integrals), or None."""
+    cell = [i for i in form.integrals() if i.integral_type() == "cell"]
+    rest = [i for i in form.integrals() if i.integral_type() != "cell"]
+    return ufl.Form(cell), (ufl.Form(rest) if rest else None)
+
+
 class SNESSolver:
     """Solve the nonlinear problem F(u; v) = 0 for all v with PETSc SNES.
 
@@ -83,6 +90,12 @@ class SNESSolver:
         u: The unknown Function; it holds the initial guess and receives the solution.
         bcs: Dirichlet conditions on ``u``.
         J: The Jacobian form; ``ufl.derivative(F, u)`` when omitted.
+        constant_jacobian: The integrals of J that do not depend on ``u`` (for example the
+            bulk terms of a problem whose only nonlinearity lives on a boundary; see
+            :func:`split_cell_integrals`). It is
+            assembled once; each Jacobian evaluation then assembles only J minus this
+            part, and when that has not changed since the last evaluation the matrix
+            is left untouched, so that PETSc reuses its factorisation.
         petsc_options: PETSc options that override :data:`DEFAULT_PETSC_OPTIONS`.
             Options set in the PETSc options database under ``options_prefix``
             (for example ``-nitsche_snes_monitor`` on the command line) win over both.
@@ -101,17 +114,23 @@ class SNESSolver:
         J: ufl.Form | None = None,
         petsc_options: dict[str, Any] | None = None,
         options_prefix: str | None = None,
+        constant_jacobian: ufl.Form | None = None,
     ):
         self.u = u
         self.bcs = list(bcs)
         self.F_form = fem.form(F)
-        self.J_form = fem.form(
-            J if J is not None else ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
-        )
+        if J is None:
+            J = ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
+        self.J_form = fem.form(J)
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)
         self._A = compat.create_matrix(self.J_form)
+        self.jacobian_evaluations = 0
+        self.jacobian_updates = 0
+        self._split = None
+        if constant_jacobian is not None:
+            self._setup_split(J, constant_jacobian)
 
         comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
@@ -152,10 +171,46 @@ class SNESSolver:
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         compat.set_bc(b, self.bcs, x, -1.0)
 
+    def _setup_split(self, J: ufl.Form, constant: ufl.Form) -> None:
+        """Assemble the constant integrals once; keep a matrix for the others and its last value."""
+        constant_integrals = constant.integrals()
+        varying_integrals = [i for i in J.integrals() if i not in constant_integrals]
+        A_constant = compat.create_matrix(self.J_form)
+        fem_petsc.assemble_matrix(A_constant, fem.form(constant), self.bcs, 1.0)
+        A_constant.assemble()
+        if not varying_integrals:
+            self._split = (A_constant, None, None, None)
+            return
+        varying_form = fem.form(ufl.Form(varying_integrals))
+        self._split = (A_constant, varying_form, compat.create_matrix(self.J_form), None)
+
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
-        A.zeroEntries()
-        fem_petsc.assemble_matrix(A, self.J_form, self.bcs)
-        A.assemble()
+        self.jacobian_evaluations += 1
+        if self._split is None or self.jacobian_updates == 0:
+            # the whole Jacobian: always without a split, and once with one (it gives A
+            # its full sparsity, which the cheaper updates below then keep)
+            A.zeroEntries()
+            fem_petsc.assemble_matrix(A, self.J_form, self.bcs)
+            A.assemble()
+            self.jacobian_updates += 1
+            if self._split is None or self._split[1] is None:
+                return
+        A_constant, varying_form, B, B_last = self._split
+        if varying_form is None:
+            return  # the Jacobian is constant
+        B.zeroEntries()
+        fem_petsc.assemble_matrix(B, varying_form, self.bcs, 0.0)
+        B.assemble()
+        if B_last is not None and B.equal(B_last):
+            return  # A unchanged: its PETSc state stays, so the factorisation is reused
+        if B_last is not None:
+            subset = PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN
+            A.zeroEntries()
+            A.axpy(1.0, A_constant, subset)
+            A.axpy(1.0, B, subset)
+            B_last.destroy()
+            self.jacobian_updates += 1
+        self._split = (A_constant, varying_form, B, B.copy())
 
     def solve(self) -> int:
         """Run SNES from the current value of ``u``.
@@ -180,5 +235,6 @@ class SNESSolver:
 
     def destroy(self) -> None:
         """Free the PETSc objects (collective)."""
-        for obj in (self.snes, self._A, self._b, self._x):
+        matrices = [m for m in (self._split or ()) if isinstance(m, PETSc.Mat)]
+        for obj in (self.snes, self._A, self._b, self._x, *matrices):
             obj.destroy()
