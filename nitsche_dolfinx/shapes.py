@@ -317,7 +317,7 @@ def write_msh(path: str, build: Callable[..., None], **kwargs) -> dict[str, int]
         except Exception as error:  # gmsh raises a bare Exception
             raise OSError(f"cannot write {path!r}: {error}") from None
         dim = gmsh.model.getDimension()
-        types, tags, _ = gmsh.model.mesh.getElements(dim)
+        _, tags, _ = gmsh.model.mesh.getElements(dim)
         return {
             "nodes": len(gmsh.model.mesh.getNodes()[0]),
             "cells": sum(len(t) for t in tags),
