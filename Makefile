@@ -17,6 +17,7 @@ setup:
 # The main job: the paper's experiments that exist so far.
 demo: setup
 	$(PY) demos/bar_1d.py --out out/bar_1d
+	mpirun -n $(NP) $(PY) demos/ring_2d.py --quiet --out out/ring_2d
 
 # The suite serially, then the MPI tests under mpirun -n $(NP).
 test: setup
@@ -29,8 +30,9 @@ test-mpi:
 	mpirun -n $(NP) $(PY) -m pytest -q -m mpi -p no:cacheprovider tests
 
 lint:
-	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks
-	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks
+	$(PY) -m pip install --quiet ruff
+	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks meshes
+	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks meshes
 
 clean:
 	rm -rf out .pytest_cache .python-path .setup-stamp

@@ -10,14 +10,16 @@ dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
 - :mod:`~nitsche_dolfinx.solver`: the PETSc SNES wrapper;
 - :mod:`~nitsche_dolfinx.diagnostics`: energies E and E_Theta, contact force;
 - :mod:`~nitsche_dolfinx.problem`: the problem object and the time loop;
-- :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`;
+- :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.shapes`: loading meshes, gmsh bodies;
+- :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`, :mod:`~nitsche_dolfinx.cases`;
+- :mod:`~nitsche_dolfinx.config`, :mod:`~nitsche_dolfinx.cli`: the ``nitsche-dolfinx`` command;
 - :mod:`~nitsche_dolfinx.compat`: every dolfinx version difference (0.5 to 0.11).
 """
 
 from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .diagnostics import BoundaryAverage
 from .material import Material
-from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
+from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
 from .obstacles import PlaneObstacle, SignedDistanceObstacle
 from .output import read_history
 from .problem import HISTORY_COLUMNS, ContactProblem, Simulation
@@ -53,7 +55,9 @@ __all__ = [
     "ThetaScheme",
     "bar_mesh",
     "hybrid_contact_force",
+    "load_mesh",
     "make_scheme",
     "positive_part",
     "read_history",
+    "save_mesh",
 ]

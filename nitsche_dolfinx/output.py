@@ -42,6 +42,7 @@ class HistoryWriter:
         self._file.flush()
 
     def close(self) -> None:
+        """Close the file (what was written stays readable at every moment anyway)."""
         if self._file is not None:
             self._file.close()
             self._file = None
@@ -99,6 +100,7 @@ class SolutionWriter:
             self._xdmf.flush()
 
     def close(self) -> None:
+        """Close the XDMF file."""
         self._xdmf.close()
 
 
