@@ -101,3 +101,38 @@ def test_parallel_matches_serial_2d(scheme):
     for parallel, serial in zip(*runs):
         for column in columns:
             assert parallel[column] == pytest.approx(serial[column], rel=1e-10, abs=1e-10), column
+
+
+@pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
+def test_time_dependent_traction_gives_exact_momentum(scheme):
+    """A free block pushed on its top by g_N(t) = (0, -c t): its momentum is -c t^2 / 2 exactly
+    (both schemes integrate a linear-in-time force exactly)."""
+    import ufl
+    from dolfinx import fem
+
+    from nitsche_dolfinx.diagnostics import assemble_global
+
+    msh, tags = block(2, MPI.COMM_WORLD)
+    problem = ContactProblem(msh, tags, Material(E=50.0, nu=0.3, rho=2.0))
+    c = 0.3
+    problem.add_traction(TOP, lambda t: [0.0, -c * t])
+    sim = Simulation(problem, scheme, dt=0.05, t_end=0.5)
+    momentum = fem.form(2.0 * sim.v[1] * ufl.dx)
+    values = []
+    sim.run(callback=lambda s: values.append((s.t, assemble_global(momentum, msh.comm))))
+    t, p = np.array(values).T
+    assert np.allclose(p, -c * t**2 / 2, rtol=1e-10, atol=1e-13)
+
+
+def test_time_dependent_dirichlet_is_applied():
+    """The bottom follows u = (0, 0.01 t^2) at every time level, whatever the scheme."""
+    from dolfinx import fem
+
+    msh, tags = block(2, MPI.COMM_WORLD)
+    problem = ContactProblem(msh, tags, Material(E=50.0, nu=0.3))
+    problem.add_dirichlet(BOTTOM, lambda t: [0.0, 0.01 * t**2])
+    sim = Simulation(problem, HybridScheme(), dt=0.1, t_end=0.5)
+    dofs = fem.locate_dofs_topological(problem.V, 1, problem.facets(BOTTOM))
+    checks = []
+    sim.run(callback=lambda s: checks.append(s.u.x.array.reshape(-1, 2)[dofs, 1] - 0.01 * s.t**2))
+    assert len(checks) == 5 and all(np.abs(c).max() < 1e-12 for c in checks if len(c))
