@@ -37,7 +37,7 @@ from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
 from .output import HistoryWriter, SolutionWriter, ensure_directory
 from .schemes import TimeScheme
-from .solver import SNESSolver, SolverError, split_cell_integrals
+from .solver import SNESSolver, SolverError
 
 __all__ = ["ContactProblem", "Simulation", "HISTORY_COLUMNS"]
 
@@ -272,6 +272,9 @@ class Simulation:
         reuse_jacobian: Assemble the constant bulk Jacobian once and re-factorise only
             when the contact part of the Jacobian changes (the default); False
             re-assembles and re-factorises at every Newton iteration.
+        preconditioner_lag: When > 0, keep the last factorised Jacobian as the
+            preconditioner of GMRES until a linear solve needs more than this many
+            iterations (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
     """
 
     def __init__(
@@ -283,6 +286,7 @@ class Simulation:
         petsc_options: dict[str, Any] | None = None,
         progress: bool = False,
         reuse_jacobian: bool = True,
+        preconditioner_lag: int = 0,
     ):
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"the time step must be positive, got dt={dt!r}")
@@ -318,12 +322,15 @@ class Simulation:
         test = ufl.TestFunction(V)
         dt_c = fem.Constant(problem.mesh, self.dt)
         F = scheme.residual(problem, self.w, self.u, self.v, self.a, dt_c, test)
-        # The bulk is linear elastodynamics: its Jacobian (the cell integrals) is constant,
-        # and only the contact terms on Gamma_C change it.
-        J = ufl.derivative(F, self.w, ufl.TrialFunction(V))
-        constant_jacobian, _ = split_cell_integrals(J) if reuse_jacobian else (None, None)
+        # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
+        # the unknown, and only the contact terms on Gamma_C change the Jacobian.
         self.solver = SNESSolver(
-            F, self.w, bcs, J=J, petsc_options=petsc_options, constant_jacobian=constant_jacobian
+            F,
+            self.w,
+            bcs,
+            petsc_options=petsc_options,
+            affine_cell_terms=reuse_jacobian,
+            preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
         )
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._petsc_options = petsc_options

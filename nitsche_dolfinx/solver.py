@@ -75,11 +75,11 @@ class SolverError(RuntimeError):
         self.args = (self._message(),)
 
 
-def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form, ufl.Form | None]:
-    """Split a form into its cell integrals and the rest (facet integrals), or None."""
+def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | None]:
+    """Split a form into its cell integrals and its other (facet) integrals; None if empty."""
     cell = [i for i in form.integrals() if i.integral_type() == "cell"]
     rest = [i for i in form.integrals() if i.integral_type() != "cell"]
-    return ufl.Form(cell), (ufl.Form(rest) if rest else None)
+    return (ufl.Form(cell) if cell else None), (ufl.Form(rest) if rest else None)
 
 
 class SNESSolver:
@@ -90,16 +90,20 @@ class SNESSolver:
         u: The unknown Function; it holds the initial guess and receives the solution.
         bcs: Dirichlet conditions on ``u``.
         J: The Jacobian form; ``ufl.derivative(F, u)`` when omitted.
-        constant_jacobian: The integrals of J that do not depend on ``u`` (for example the
-            bulk terms of a problem whose only nonlinearity lives on a boundary; see
-            :func:`split_cell_integrals`). It is
-            assembled once; each Jacobian evaluation then assembles only J minus this
-            part, and when that has not changed since the last evaluation the matrix
-            is left untouched, so that PETSc reuses its factorisation.
         petsc_options: PETSc options that override :data:`DEFAULT_PETSC_OPTIONS`.
             Options set in the PETSc options database under ``options_prefix``
             (for example ``-nitsche_snes_monitor`` on the command line) win over both.
         options_prefix: PETSc options prefix of this solver; a unique one when omitted.
+        affine_cell_terms: The cell integrals of F are affine in ``u``: all the
+            nonlinearity lives on facets, as in linear elastodynamics with contact.
+            Their Jacobian is then assembled once, their residual is a matrix-vector
+            product, and each Newton iteration assembles only the facet terms. When
+            those have not changed since the last iteration the Jacobian is left
+            untouched, so that PETSc reuses its factorisation.
+        preconditioner_lag: With ``affine_cell_terms``: keep factorising the Jacobian
+            only when the last linear solve needed more than this many Krylov
+            iterations, and solve with GMRES preconditioned by the last factorised
+            Jacobian in between (0: factorise every changed Jacobian, solve directly).
 
     Example:
         >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
@@ -114,32 +118,44 @@ class SNESSolver:
         J: ufl.Form | None = None,
         petsc_options: dict[str, Any] | None = None,
         options_prefix: str | None = None,
-        constant_jacobian: ufl.Form | None = None,
+        affine_cell_terms: bool = False,
+        preconditioner_lag: int = 0,
     ):
         self.u = u
         self.bcs = list(bcs)
-        self.F_form = fem.form(F)
         if J is None:
             J = ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
+        self.F_form = fem.form(F)
         self.J_form = fem.form(J)
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)
         self._A = compat.create_matrix(self.J_form)
+        self._P = None
+        #: Jacobian evaluations asked by SNES, actual changes of the Jacobian, and
+        #: changes of the matrix PETSc factorises (the Jacobian itself, or a lagged copy)
         self.jacobian_evaluations = 0
         self.jacobian_updates = 0
-        self._split = None
-        if constant_jacobian is not None:
-            self._setup_split(J, constant_jacobian)
+        self.preconditioner_updates = 0
+        self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
+        self._split = _AffineCellSplit(F, J, self.bcs) if affine_cell_terms else None
 
+        options = {**DEFAULT_PETSC_OPTIONS}
+        if self.preconditioner_lag > 0:
+            options.update(ksp_type="gmres", ksp_rtol=1e-12, ksp_atol=1e-14, ksp_max_it=200)
+        options.update(petsc_options or {})
         comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         self.snes.setOptionsPrefix(self.options_prefix)
         self.snes.setFunction(self._assemble_residual, self._b)
-        self.snes.setJacobian(self._assemble_jacobian, self._A)
+        if self.preconditioner_lag > 0:
+            self._P = compat.create_matrix(self.J_form)
+            self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
+        else:
+            self.snes.setJacobian(self._assemble_jacobian, self._A)
         compat.set_divergence_tolerance(self.snes, 1.0e300)  # contact residuals may jump
-        inserted = self._insert_options({**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})})
+        inserted = self._insert_options(options)
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -166,23 +182,15 @@ class SNESSolver:
         self.u.x.scatter_forward()
         with b.localForm() as b_local:
             b_local.set(0.0)
-        fem_petsc.assemble_vector(b, self.F_form)
+        if self._split is None:
+            fem_petsc.assemble_vector(b, self.F_form)
+        elif self._split.F_facet is not None:
+            fem_petsc.assemble_vector(b, self._split.F_facet)
         compat.apply_lifting(b, self.J_form, self.bcs, x, -1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self._split is not None:
+            self._split.add_cell_residual(x, b)
         compat.set_bc(b, self.bcs, x, -1.0)
-
-    def _setup_split(self, J: ufl.Form, constant: ufl.Form) -> None:
-        """Assemble the constant integrals once; keep a matrix for the others and its last value."""
-        constant_integrals = constant.integrals()
-        varying_integrals = [i for i in J.integrals() if i not in constant_integrals]
-        A_constant = compat.create_matrix(self.J_form)
-        fem_petsc.assemble_matrix(A_constant, fem.form(constant), self.bcs, 1.0)
-        A_constant.assemble()
-        if not varying_integrals:
-            self._split = (A_constant, None, None, None)
-            return
-        varying_form = fem.form(ufl.Form(varying_integrals))
-        self._split = (A_constant, varying_form, compat.create_matrix(self.J_form), None)
 
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
@@ -192,25 +200,23 @@ class SNESSolver:
             A.zeroEntries()
             fem_petsc.assemble_matrix(A, self.J_form, self.bcs)
             A.assemble()
-            self.jacobian_updates += 1
-            if self._split is None or self._split[1] is None:
-                return
-        A_constant, varying_form, B, B_last = self._split
-        if varying_form is None:
-            return  # the Jacobian is constant
-        B.zeroEntries()
-        fem_petsc.assemble_matrix(B, varying_form, self.bcs, 0.0)
-        B.assemble()
-        if B_last is not None and B.equal(B_last):
+            if self._split is not None:
+                self._split.facet_jacobian_changed()  # remember the facet part
+        elif self._split.facet_jacobian_changed():
+            self._split.sum_into(A)
+        else:
             return  # A unchanged: its PETSc state stays, so the factorisation is reused
-        if B_last is not None:
-            subset = PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN
-            A.zeroEntries()
-            A.axpy(1.0, A_constant, subset)
-            A.axpy(1.0, B, subset)
-            B_last.destroy()
-            self.jacobian_updates += 1
-        self._split = (A_constant, varying_form, B, B.copy())
+        self.jacobian_updates += 1
+        if self._P is None:
+            self.preconditioner_updates += 1
+        elif self.preconditioner_updates == 0 or (
+            snes.getKSP().getIterationNumber() > self.preconditioner_lag
+        ):
+            if self.preconditioner_updates == 0:  # gives P its structure
+                fem_petsc.assemble_matrix(P, self.J_form, self.bcs)
+                P.assemble()
+            A.copy(P, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.preconditioner_updates += 1
 
     def solve(self) -> int:
         """Run SNES from the current value of ``u``.
@@ -223,6 +229,8 @@ class SNESSolver:
                 residual norm. ``u`` then holds the last Newton iterate.
         """
         u_vec = compat.petsc_vector(self.u)
+        if self._split is not None:
+            self._split.update_cell_residual(self.u)
         u_vec.copy(self._x)
         self.snes.solve(None, self._x)
         reason = self.snes.getConvergedReason()
@@ -235,6 +243,82 @@ class SNESSolver:
 
     def destroy(self) -> None:
         """Free the PETSc objects (collective)."""
-        matrices = [m for m in (self._split or ()) if isinstance(m, PETSc.Mat)]
-        for obj in (self.snes, self._A, self._b, self._x, *matrices):
+        objects = [self.snes, self._A, self._b, self._x]
+        if self._P is not None:
+            objects.append(self._P)
+        if self._split is not None:
+            objects.extend(self._split.petsc_objects())
+        for obj in objects:
             obj.destroy()
+
+
+class _AffineCellSplit:
+    """The cell terms of an affine-in-the-bulk problem, assembled once, and the facet terms.
+
+    The residual is ``F(x) = K x + F_cell(0) + F_facet(x)`` and the Jacobian
+    ``J = K_bc + J_facet(x)``, where ``K`` is the constant Jacobian of the cell terms
+    (``K_bc``: with the Dirichlet rows and columns replaced by the identity).
+    """
+
+    def __init__(self, F: ufl.Form, J: ufl.Form, bcs):
+        self.bcs = bcs
+        F_cell, F_facet = split_cell_integrals(F)
+        J_cell, J_facet = split_cell_integrals(J)
+        if F_cell is None or J_cell is None:
+            raise ValueError("affine_cell_terms needs cell integrals in F and J")
+        self.F_cell = fem.form(F_cell)
+        self.F_facet = fem.form(F_facet) if F_facet is not None else None
+        self.J_facet = fem.form(J_facet) if J_facet is not None else None
+        J_cell = fem.form(J_cell)
+        self.K = fem_petsc.assemble_matrix(J_cell)
+        self.K.assemble()
+        self.K_bc = fem_petsc.assemble_matrix(J_cell, bcs, 1.0)
+        self.K_bc.assemble()
+        self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
+        self._Kx = self.F0.duplicate()
+        # the facet Jacobian lives on a much smaller sparsity than J
+        self.B = fem_petsc.create_matrix(self.J_facet) if self.J_facet is not None else None
+        self.B_last = None
+
+    def update_cell_residual(self, u: fem.Function) -> None:
+        """F_cell(0) for the current coefficients (assembled with u = 0; u is restored)."""
+        saved = u.x.array.copy()
+        u.x.array[:] = 0.0
+        with self.F0.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self.F0, self.F_cell)
+        self.F0.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        u.x.array[:] = saved
+
+    def add_cell_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+        """b += K x + F_cell(0) on the owned entries."""
+        self.K.multAdd(x, self.F0, self._Kx)
+        b.axpy(1.0, self._Kx)
+
+    def facet_jacobian_changed(self) -> bool:
+        """Assemble the facet Jacobian; True if it differs from the last one."""
+        if self.B is None:  # no facet terms: the Jacobian never changes
+            first, self.B_last = self.B_last is None, True
+            return first
+        self.B.zeroEntries()
+        fem_petsc.assemble_matrix(self.B, self.J_facet, self.bcs, 0.0)
+        self.B.assemble()
+        if self.B_last is not None and self.B.equal(self.B_last):
+            return False
+        if self.B_last is not None:
+            self.B_last.destroy()
+        self.B_last = self.B.copy()
+        return True
+
+    def sum_into(self, A: PETSc.Mat) -> None:
+        """A = K_bc + B, on A's (larger) sparsity."""
+        subset = PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN
+        A.zeroEntries()
+        A.axpy(1.0, self.K_bc, subset)
+        if self.B is not None:
+            A.axpy(1.0, self.B, subset)
+
+    def petsc_objects(self) -> list:
+        objects = [self.K, self.K_bc, self.F0, self._Kx]
+        objects += [m for m in (self.B, self.B_last) if isinstance(m, PETSc.Mat)]
+        return objects
