@@ -10,7 +10,7 @@ from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
 from .obstacles import PlaneObstacle
 from .problem import ContactProblem
 
-__all__ = ["BAR_COLUMNS", "add_bar_probes", "bar_problem"]
+__all__ = ["BAR_COLUMNS", "add_bar_probes", "bar_problem", "impact_problem"]
 
 #: Columns of the bar demo's ``history.csv`` (SPEC section 6).
 BAR_COLUMNS = (
@@ -57,3 +57,41 @@ def add_bar_probes(simulation) -> None:
     simulation.add_probe("u_contact", BoundaryAverage(mesh, simulation.u[0], ds))
     simulation.add_probe("v_contact", BoundaryAverage(mesh, simulation.v[0], ds))
     simulation.add_probe("sigma_contact", BoundaryAverage(mesh, contact.pressure(simulation.u), ds))
+
+
+def impact_problem(
+    dim: int = 3,
+    mesh_size: float = 8.0,
+    degree: int = 2,
+    gamma0: float = 1e-3,
+    nitsche_theta: float = 1.0,
+    geometry_order: int = 2,
+    comm=MPI.COMM_WORLD,
+) -> ContactProblem:
+    """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
+
+    Radius 20, resting on its centre 20 above the rigid plane z = 0 (y = 0 in 2D),
+    lifted by u0 = 5 e_z, v0 = 0, f = -0.1 e_z, rho = 1, lambda = mu = 20, no
+    Dirichlet condition, Gamma_C the lower half of the boundary. It falls for
+    t = sqrt(2 * 5 / 0.1) = 10 and hits the plane with speed 1.
+    """
+    from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
+
+    if dim not in (2, 3):
+        raise ValueError(f"the impact test is 2D (disk) or 3D (ball), got dim={dim!r}")
+    make_mesh, contact_tag = (ball_mesh, BALL_CONTACT) if dim == 3 else (disk_mesh, DISK_CONTACT)
+    mesh, tags = make_mesh(mesh_size=mesh_size, order=geometry_order, comm=comm)
+    problem = ContactProblem(
+        mesh,
+        tags,
+        Material.from_lame(20.0, 20.0, rho=1.0),
+        degree=degree,
+        gamma0=gamma0,
+        nitsche_theta=nitsche_theta,
+    )
+    up = [0.0] * dim
+    up[-1] = 1.0
+    problem.add_obstacle(PlaneObstacle(point=[0.0] * dim, normal=up), contact_tag)
+    problem.add_body_force([-0.1 * c for c in up])
+    problem.set_initial_conditions(displacement=[5.0 * c for c in up])
+    return problem

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
 from . import compat
@@ -42,6 +43,11 @@ class BoundaryAverage:
         return assemble_global(self._integral, self.comm) / self._measure
 
 
+def _total(forms: list, zero):
+    """The sum of a list of forms, or ``zero`` for an empty list."""
+    return sum(forms[1:], forms[0]) if forms else zero
+
+
 class Diagnostics:
     """Energies, contact force, contact area and penetration of a displacement/velocity pair.
 
@@ -53,17 +59,21 @@ class Diagnostics:
 
     def __init__(self, model, u: fem.Function, v: fem.Function):
         self.comm = model.mesh.comm
-        dx = model.dx
-        rho = model.material.rho
+        self.u, self.v = u, v
+        # the quadratic energies as matrices assembled once: a matrix-vector product per step
+        trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
+        self._mass = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+        self._mass.assemble()
+        self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
+        self._stiffness.assemble()
+        self._work = self._mass.createVecLeft()
+        zero = fem.Constant(model.mesh, 0.0) * model.dx
         forms = {
-            "kinetic": 0.5 * rho * ufl.inner(v, v) * dx,
-            "elastic": 0.5 * model.bulk_stiffness(u, u),
             "potential": -model.load(u),
+            "energy_correction": _total([c.energy_correction(u) for c in model.contacts], zero),
+            "contact_force": _total([c.force(u) for c in model.contacts], zero),
+            "contact_area": _total([c.area(u) for c in model.contacts], zero),
         }
-        zero = fem.Constant(model.mesh, 0.0) * dx
-        forms["energy_correction"] = sum((c.energy_correction(u) for c in model.contacts), zero)
-        forms["contact_force"] = sum((c.force(u) for c in model.contacts), zero)
-        forms["contact_area"] = sum((c.area(u) for c in model.contacts), zero)
         self._forms = {name: fem.form(form) for name, form in forms.items()}
 
         # penetration u_n - g at the dofs of Gamma_C, interpolated into a scalar space
@@ -87,14 +97,26 @@ class Diagnostics:
                 local = max(local, float(field.x.array[dofs].max()))
         return self.comm.allreduce(local, op=MPI.MAX)
 
+    def _quadratic(self, matrix, function) -> float:
+        """1/2 x^T A x over all ranks."""
+        x = compat.petsc_vector(function)
+        matrix.mult(x, self._work)
+        return 0.5 * self._work.dot(x)
+
     def compute(self) -> dict[str, float]:
         """All diagnostics at the current state, identical on every rank."""
         local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
         values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
+        values["kinetic"] = self._quadratic(self._mass, self.v)
+        values["elastic"] = self._quadratic(self._stiffness, self.u)
         energy = values["kinetic"] + values["elastic"] + values["potential"]
         return {
             "energy": energy,
-            "energy_theta": energy + values.pop("energy_correction"),
-            **values,
+            "energy_theta": energy + values["energy_correction"],
+            "kinetic": values["kinetic"],
+            "elastic": values["elastic"],
+            "potential": values["potential"],
+            "contact_force": values["contact_force"],
+            "contact_area": values["contact_area"],
             "penetration_max": self.penetration_max(),
         }

@@ -142,7 +142,9 @@ class SNESSolver:
 
         options = {**DEFAULT_PETSC_OPTIONS}
         if self.preconditioner_lag > 0:
-            options.update(ksp_type="gmres", ksp_rtol=1e-12, ksp_atol=1e-14, ksp_max_it=200)
+            options.update(
+                ksp_type="gmres", ksp_pc_side="right", ksp_rtol=1e-12, ksp_atol=1e-14, ksp_max_it=200
+            )
         options.update(petsc_options or {})
         comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
@@ -209,14 +211,17 @@ class SNESSolver:
         self.jacobian_updates += 1
         if self._P is None:
             self.preconditioner_updates += 1
-        elif self.preconditioner_updates == 0 or (
-            snes.getKSP().getIterationNumber() > self.preconditioner_lag
-        ):
+            return
+        ksp = snes.getKSP()
+        if self.preconditioner_updates == 0 or ksp.getIterationNumber() > self.preconditioner_lag:
             if self.preconditioner_updates == 0:  # gives P its structure
                 fem_petsc.assemble_matrix(P, self.J_form, self.bcs)
                 P.assemble()
             A.copy(P, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.preconditioner_updates += 1
+            ksp.setType("preonly")  # P is A: one direct solve
+        else:
+            ksp.setType("gmres")  # P lags behind A: let GMRES make up the difference
 
     def solve(self) -> int:
         """Run SNES from the current value of ``u``.
