@@ -66,6 +66,7 @@ def impact_problem(
     gamma0: float = 1e-3,
     nitsche_theta: float = 1.0,
     geometry_order: int = 2,
+    contact: bool = True,
     comm=MPI.COMM_WORLD,
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
@@ -73,7 +74,8 @@ def impact_problem(
     Radius 20, resting on its centre 20 above the rigid plane z = 0 (y = 0 in 2D),
     lifted by u0 = 5 e_z, v0 = 0, f = -0.1 e_z, rho = 1, lambda = mu = 20, no
     Dirichlet condition, Gamma_C the lower half of the boundary. It falls for
-    t = sqrt(2 * 5 / 0.1) = 10 and hits the plane with speed 1.
+    t = sqrt(2 * 5 / 0.1) = 10 and hits the plane with speed 1. ``contact=False``
+    leaves out the obstacle: plain linear elastodynamics on the same mesh.
     """
     from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
 
@@ -91,7 +93,8 @@ def impact_problem(
     )
     up = [0.0] * dim
     up[-1] = 1.0
-    problem.add_obstacle(PlaneObstacle(point=[0.0] * dim, normal=up), contact_tag)
+    if contact:
+        problem.add_obstacle(PlaneObstacle(point=[0.0] * dim, normal=up), contact_tag)
     problem.add_body_force([-0.1 * c for c in up])
     problem.set_initial_conditions(displacement=[5.0 * c for c in up])
     return problem

@@ -1,0 +1,97 @@
+"""The impact test of the talk: the 3D ball and the 2D disk (P2, curved gmsh meshes)."""
+
+import os
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation
+from nitsche_dolfinx.cases import impact_problem
+
+COLUMNS = (
+    "energy",
+    "energy_theta",
+    "kinetic",
+    "elastic",
+    "potential",
+    "contact_force",
+    "contact_area",
+    "penetration_max",
+)
+
+
+def run(scheme=None, t_end=40.0, comm=MPI.COMM_WORLD, out=None, output_every=0, **kwargs):
+    problem = impact_problem(comm=comm, **kwargs)
+    simulation = Simulation(problem, scheme or HybridScheme(), dt=0.1, t_end=t_end)
+    records = simulation.run(out=out, output_every=output_every)
+    return {name: np.array([r[name] for r in records]) for name in records[0]}
+
+
+@pytest.fixture(scope="module")
+def ball():
+    """The talk's run: hybrid, Theta = 1, gamma0 = 1e-3, P2, h = 8, tau = 0.1, T = 40."""
+    return run()
+
+
+@pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
+def test_free_fall_conserves_energy(scheme):
+    """Before the impact (t < 10) the total energy, potential of f included, is conserved;
+    the consistent initial acceleration a0 = f/rho keeps the ball stress-free."""
+    history = run(scheme, t_end=9.7)
+    E = history["energy"]
+    assert np.all(history["contact_force"] == 0)
+    assert np.abs(E - E[0]).max() / abs(E[0]) < 1e-8
+    assert history["elastic"].max() < 1e-8 * abs(E[0])
+
+
+def test_first_contact_time(ball):
+    first = ball["t"][np.argmax(ball["contact_force"] > 0)]
+    assert 9.8 <= first <= 10.4
+
+
+def test_hybrid_energy_theta_never_increases(ball):
+    E_theta = ball["energy_theta"]
+    assert np.diff(E_theta).max() <= 1e-12 * abs(E_theta[0])
+
+
+def test_hybrid_energy_drift_under_two_percent(ball):
+    E = ball["energy"]
+    drift = abs(E[-1] - E[0]) / abs(E[0])
+    assert drift < 0.02  # measured: 3.9e-4
+
+
+def test_penetration_decreases_with_gamma0():
+    """Measured on the disk (same physics in 2D): max penetration over [0, 14]."""
+    penetrations = [
+        run(dim=2, gamma0=gamma0, t_end=14.0)["penetration_max"].max()
+        for gamma0 in (1e-2, 1e-3, 1e-4)
+    ]
+    assert penetrations[0] > 0
+    assert penetrations[0] > penetrations[1] > penetrations[2]
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim, t_end", [(2, 40.0), (3, 14.0)], ids=["disk", "ball"])
+def test_parallel_history_matches_serial(dim, t_end):
+    parallel = run(dim=dim, t_end=t_end, comm=MPI.COMM_WORLD)
+    serial = run(dim=dim, t_end=t_end, comm=MPI.COMM_SELF)
+    for column in COLUMNS:
+        scale = max(np.abs(serial[column]).max(), 1e-300)
+        assert np.abs(parallel[column] - serial[column]).max() <= 1e-8 * scale, column
+
+
+@pytest.mark.mpi
+def test_xdmf_has_three_fields_at_every_output_time(mpi_tmp_path):
+    h5py = pytest.importorskip("h5py")
+    run(dim=2, t_end=2.0, out=mpi_tmp_path, output_every=5)
+    MPI.COMM_WORLD.barrier()
+    with h5py.File(os.path.join(mpi_tmp_path, "solution.h5"), "r") as f:
+        functions = f["Function"]
+        assert set(functions) == {"displacement", "velocity", "von_mises"}
+        for name in functions:
+            assert len(functions[name]) == 5  # t = 0, 0.5, 1.0, 1.5, 2.0
+            for dataset in functions[name].values():
+                assert np.all(np.isfinite(dataset[()]))
+    text = open(os.path.join(mpi_tmp_path, "solution.xdmf")).read()
+    assert text.count('<Time Value="') >= 5
