@@ -7,6 +7,8 @@ export OMPI_ALLOW_RUN_AS_ROOT := 1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
 export OMPI_MCA_rmaps_base_oversubscribe := 1
 export MPLBACKEND := Agg
+# one BLAS thread per MPI rank: the machines have two cores and mpirun -n 2 uses both
+export OPENBLAS_NUM_THREADS := 1
 PY = $(shell cat .python-path)
 
 .PHONY: setup demo test test-serial test-mpi lint clean
@@ -18,6 +20,8 @@ setup:
 demo: setup
 	$(PY) demos/bar_1d.py --out out/bar_1d
 	mpirun -n $(NP) $(PY) demos/ring_2d.py --quiet --out out/ring_2d
+	mpirun -n $(NP) $(PY) demos/disk_2d.py --quiet --out out/disk_2d
+	mpirun -n $(NP) $(PY) demos/ball_3d.py --quiet --out out/ball_3d
 
 # The suite serially, then the MPI tests under mpirun -n $(NP).
 test: setup

@@ -137,8 +137,10 @@ def main() -> None:
             command = [sys.executable, os.path.abspath(__file__), *forwarded, "--json"]
             if ranks > 1:
                 command = ["mpirun", "-n", str(ranks), *command]
-            output = subprocess.run(command, capture_output=True, text=True, check=True).stdout
-            rows += [json.loads(line) for line in output.splitlines() if line.startswith("{")]
+            result = subprocess.run(command, capture_output=True, text=True)
+            if result.returncode != 0:
+                sys.exit(f"{' '.join(command)} failed:\n{result.stderr[-3000:]}")
+            rows += [json.loads(line) for line in result.stdout.splitlines() if line[:1] == "{"]
         print(table(rows))
         return
 

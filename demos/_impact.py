@@ -26,6 +26,7 @@ from petsc4py import PETSc
 
 from nitsche_dolfinx import HISTORY_COLUMNS, SCHEMES, Simulation, SolverError, compat, make_scheme
 from nitsche_dolfinx.cases import impact_problem
+from nitsche_dolfinx.solver import rigid_body_modes
 
 #: Time of the talk's picture of the deformed ball.
 PICTURE_TIME = 18.0
@@ -33,7 +34,7 @@ PICTURE_TIME = 18.0
 #: ``--linear-solver`` choices: name -> what it is.
 LINEAR_SOLVERS = {
     "lu": "direct LU at every change of the Jacobian (MUMPS when PETSc has it)",
-    "lu-lagged": "the last LU factorisation as a GMRES preconditioner, refreshed after 10 iterations",
+    "lu-lagged": "the last LU factorisation as GMRES preconditioner, renewed past 10 iterations",
     "cg-gamg": "conjugate gradients, algebraic multigrid with the rigid-body near-nullspace",
     "gmres-gamg": "GMRES, algebraic multigrid with the rigid-body near-nullspace",
 }
@@ -138,32 +139,19 @@ def one_line_errors(parser: argparse.ArgumentParser):
         yield
     except (ValueError, SolverError, PETSc.Error) as error:
         if MPI.COMM_WORLD.rank == 0:
-            message = str(error).strip().splitlines()[0] if str(error).strip() else repr(error)
-            print(f"{parser.prog}: error: {message}", file=sys.stderr)
+            print(f"{parser.prog}: error: {_one_line(error)}", file=sys.stderr)
         sys.exit(2)
 
 
+def _one_line(error: Exception) -> str:
+    """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
+    if isinstance(error, PETSc.Error):
+        lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]
+        return f"PETSc {lines[0]}: {lines[-1]}" if len(lines) > 1 else f"PETSc {lines[0]}"
+    return " ".join(str(error).split()) or type(error).__name__
+
+
 # -- linear solvers --------------------------------------------------------------------
-
-
-def has_mumps(comm=MPI.COMM_WORLD) -> bool:
-    """Whether PETSc can factorise with MUMPS, found out by trying it on a 1 x 1 matrix."""
-    A = PETSc.Mat().createAIJ([1, 1], nnz=1, comm=PETSc.COMM_SELF)
-    A.setValue(0, 0, 1.0)
-    A.assemble()
-    pc = PETSc.PC().create(PETSc.COMM_SELF)
-    try:
-        pc.setOperators(A)
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
-        pc.setUp()
-        found = True
-    except PETSc.Error:
-        found = False
-    finally:
-        pc.destroy()
-        A.destroy()
-    return comm.allreduce(found, op=MPI.LAND)
 
 
 def linear_solver(name: str, comm=MPI.COMM_WORLD) -> tuple[dict, int, str]:
@@ -174,7 +162,7 @@ def linear_solver(name: str, comm=MPI.COMM_WORLD) -> tuple[dict, int, str]:
     enough for Newton to converge as with LU: relative tolerance 1e-12.
     """
     if name in ("lu", "lu-lagged"):
-        mumps = has_mumps(comm)
+        mumps = compat.has_mumps(comm)
         options = {"pc_factor_mat_solver_type": "mumps"} if mumps else {}
         package = "MUMPS" if mumps else "PETSc's own LU, serial only"
         if name == "lu":
@@ -189,47 +177,6 @@ def linear_solver(name: str, comm=MPI.COMM_WORLD) -> tuple[dict, int, str]:
         "pc_type": "gamg",
     }
     return options, 0, f"{name} (rigid-body near-nullspace)"
-
-
-def rigid_body_modes(V) -> list[PETSc.Vec]:
-    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
-
-    gdim translations and the rotations about the coordinate axes: one in 2D,
-    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
-    """
-    gdim = V.mesh.geometry.dim
-
-    def translation(i):
-        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
-
-    def zero(x):
-        return np.zeros(x.shape[1])
-
-    modes = [translation(i) for i in range(gdim)]
-    if gdim == 2:
-        modes.append(lambda x: np.stack((-x[1], x[0])))
-    else:
-        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
-        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
-        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
-    function = fem.Function(V)
-    vectors = []
-    for mode in modes:
-        function.interpolate(mode)
-        vector = compat.petsc_vector(function).copy()
-        for other in vectors:  # Gram-Schmidt
-            vector.axpy(-vector.dot(other), other)
-        vector.normalize()
-        vectors.append(vector)
-    return vectors
-
-
-def set_near_nullspace(simulation: Simulation) -> None:
-    """Give algebraic multigrid the rigid motions as the near-nullspace of the Jacobian."""
-    V = simulation.problem.V
-    nullspace = PETSc.NullSpace().create(vectors=rigid_body_modes(V), comm=V.mesh.comm)
-    jacobian = simulation.solver.snes.getJacobian()[0]
-    jacobian.setNearNullSpace(nullspace)
 
 
 # -- one run -----------------------------------------------------------------------------
@@ -256,8 +203,11 @@ def scheme_label(name: str, theta: float, beta: float, gamma: float) -> str:
 
 def impact_simulation(
     args: argparse.Namespace, dim: int, scheme_name: str, compared: bool = False
-) -> Simulation:
+) -> tuple[Simulation, str]:
     """The impact test (``dim`` 3: ball, 2: disk) with the flags and the scheme ``scheme_name``.
+
+    Returns:
+        The simulation and a description of its linear solver.
 
     Raises:
         ValueError: If a parameter is out of range.
@@ -273,7 +223,7 @@ def impact_simulation(
         nitsche_theta=args.nitsche_theta,
         comm=MPI.COMM_WORLD,
     )
-    options, lag, _ = linear_solver(args.linear_solver, problem.mesh.comm)
+    options, lag, solver = linear_solver(args.linear_solver, problem.mesh.comm)
     options.update(dict(args.petsc))
     simulation = Simulation(
         problem,
@@ -285,8 +235,8 @@ def impact_simulation(
         preconditioner_lag=lag,
     )
     if args.linear_solver.endswith("gamg"):
-        set_near_nullspace(simulation)
-    return simulation
+        simulation.solver.set_near_nullspace(rigid_body_modes(simulation.problem.V))
+    return simulation, solver
 
 
 def run(
@@ -307,12 +257,13 @@ def run(
         The history (a dict of column arrays) with the run's label, output folder,
         number of DOFs and time-loop wall time (max over ranks).
     """
-    simulation = impact_simulation(args, dim, scheme_name, compared)
+    simulation, solver = impact_simulation(args, dim, scheme_name, compared)
     comm = simulation.comm
     comm.barrier()
     start = time.perf_counter()
     records = simulation.run(out=out, output_every=output_every, callback=callback)
     seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    simulation.solver.destroy()  # collectively, rather than whenever the garbage collector runs
     V = simulation.problem.V
     label = scheme_label(scheme_name, **scheme_parameters(args, scheme_name, compared))
     return {
@@ -320,6 +271,7 @@ def run(
         "out": out,
         "dofs": V.dofmap.index_map.size_global * V.dofmap.index_map_bs,
         "seconds": seconds,
+        "linear_solver": solver,
         **{name: np.array([record[name] for record in records]) for name in HISTORY_COLUMNS},
     }
 
@@ -338,7 +290,7 @@ def measure(result: dict) -> dict:
     energy, energy_theta = result["energy"], result["energy_theta"]
     touching = t[force > 0]
     return {
-        "first_contact": touching[0] if touching.size else np.nan,
+        "first_contact": f"{touching[0]:.3f}" if touching.size else "never",
         "drift": energy[-1] / energy[0] - 1,
         "drift_theta": energy_theta[-1] / energy_theta[0] - 1,
         "rise_theta": np.max(np.diff(energy_theta)) / abs(energy_theta[0]),
@@ -347,13 +299,14 @@ def measure(result: dict) -> dict:
     }
 
 
-def print_summary(results: list[dict], args: argparse.Namespace, solver: str) -> None:
+def print_summary(results: list[dict], args: argparse.Namespace) -> None:
     """One header line, then one line of numbers per run (rank 0)."""
     main = results[0]
     print(
         f"{main['dofs']} DOFs (P{args.degree}, h = {args.mesh_size:g}), "
         f"{len(main['t']) - 1} steps of tau = {args.dt:g} to T = {args.t_end:g}, "
-        f"Theta = {args.nitsche_theta:g}, gamma0 = {args.gamma0:g}, linear solver {solver}"
+        f"Theta = {args.nitsche_theta:g}, gamma0 = {args.gamma0:g}, "
+        f"linear solver {main['linear_solver']}"
     )
     header = (
         f"{'run':40s} {'1st contact':>11s} {'E(T)/E(0)-1':>12s} {'E_Th drift':>11s} "
@@ -363,7 +316,7 @@ def print_summary(results: list[dict], args: argparse.Namespace, solver: str) ->
     for result in results:
         m = measure(result)
         print(
-            f"{result['label']:40s} {m['first_contact']:11.4g} {m['drift']:+12.3e} "
+            f"{result['label']:40s} {m['first_contact']:>11s} {m['drift']:+12.3e} "
             f"{m['drift_theta']:+11.3e} {m['rise_theta']:17.2e} {m['penetration']:11.3e} "
             f"{m['newton']:6.2f} {result['seconds']:8.2f}"
         )
@@ -394,10 +347,12 @@ COLOURS = {"hybrid": "tab:blue", "cn": "tab:red", "theta": "tab:green", "newmark
 def plot_energies(
     results: list[dict], schemes: list[str], args: argparse.Namespace, body: str, path: str
 ) -> None:
-    """The talk's "Energy E^h for different methods" (or the main run's energies alone).
+    """The talk's "Energy E^h for different methods", or the main run's energies alone.
 
-    Top: E^h of every run (with one run, also E_Theta^h and the kinetic, elastic
-    and gravity parts). Bottom: E^h / E^h(0) - 1 and the contact force.
+    Top: E^h of every run (of one run: E^h, E_Theta^h and the kinetic, elastic and
+    gravity parts). Middle, zoomed on the runs that keep E^h within 2 %: the relative
+    changes of E^h (thin) and E_Theta^h (thick), where the increases of E_Theta^h
+    show. Bottom: the contact force.
     """
     try:
         import matplotlib
@@ -410,22 +365,31 @@ def plot_energies(
     fig, (top, middle, bottom) = plt.subplots(
         3,
         1,
-        figsize=(9, 9.5),
+        figsize=(9, 10),
         sharex=True,
-        gridspec_kw={"height_ratios": (2.2, 1.3, 1)},
+        gridspec_kw={"height_ratios": (2, 1.5, 1)},
         constrained_layout=True,
     )
-    # the main run last, on top of the others
-    order = list(range(1, len(results))) + [0]
-    for i in order:
-        result, colour = results[i], COLOURS[schemes[i]]
-        width = 2.0 if i == 0 else 1.2
-        top.plot(result["t"], result["energy"], color=colour, lw=width, label=result["label"])
-        middle.plot(
-            result["t"], result["energy"] / result["energy"][0] - 1, color=colour, lw=width
-        )
-        bottom.plot(result["t"], result["contact_force"], color=colour, lw=0.8 * width)
     main = results[0]
+    zoomed = [np.max(np.abs(r["energy"] / r["energy"][0] - 1)) < 0.02 for r in results]
+    if len(results) == 1 or not any(zoomed):
+        zoomed = [True] * len(results)
+    # the main run first and wide, the others over it, so that close curves all show
+    for i, result in enumerate(results):
+        colour = COLOURS[schemes[i]]
+        t, energy, energy_theta = result["t"], result["energy"], result["energy_theta"]
+        width = 2.6 if i == 0 else 1.2
+        top.plot(t, energy, color=colour, lw=width, label=result["label"])
+        bottom.plot(t, result["contact_force"], color=colour, lw=0.8 * width)
+        if zoomed[i]:
+            middle.plot(t, energy / energy[0] - 1, color=colour, lw=0.6, alpha=0.6)
+            middle.plot(
+                t,
+                energy_theta / energy_theta[0] - 1,
+                color=colour,
+                lw=width + 0.4,
+                label=rf"$E_\Theta^h$, {result['label']}",
+            )
     if len(results) == 1:
         for name, label, style in (
             ("energy_theta", r"$E_\Theta^h$", {"color": "tab:cyan", "ls": "--"}),
@@ -434,27 +398,26 @@ def plot_energies(
             ("potential", "potential (gravity)", {"color": "tab:gray", "lw": 1}),
         ):
             top.plot(main["t"], main[name], label=label, **style)
-        middle.plot(
-            main["t"],
-            main["energy_theta"] / main["energy_theta"][0] - 1,
-            color="tab:cyan",
-            ls="--",
-        )
     top.set_ylabel("energy $E^h$")
-    top.legend(loc="best", fontsize="small")
-    middle.set_ylabel("$E^h / E^h(0) - 1$")
+    top.legend(loc="lower left", fontsize="small")
+    middle.set_ylabel("relative change")
+    which = ", runs within 2 %" if not all(zoomed) else ""
+    middle.set_title(
+        rf"$E^h / E^h(0) - 1$ (thin) and $E_\Theta^h / E_\Theta^h(0) - 1$ (thick){which}",
+        fontsize="small",
+    )
     middle.axhline(0.0, color="black", lw=0.5)
+    if middle.lines[1:]:
+        middle.legend(loc="lower left", fontsize="small")
     bottom.set_ylabel("contact force")
     bottom.set_xlabel("time $t$")
     for ax in (top, middle, bottom):
         ax.grid(alpha=0.3)
+    what = "Energy $E^h$ for different methods" if len(results) > 1 else "Energies"
     fig.suptitle(
-        rf"Energy $E^h$ for different methods: {body}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
+        rf"{what}: {body}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
         rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, $h = {args.mesh_size:g}$, "
-        rf"$\tau = {latex_number(args.dt)}$"
-        if len(results) > 1
-        else rf"Energies of the {body}, {main['label']}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
-        rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, $\tau = {latex_number(args.dt)}$",
+        rf"$\tau = {latex_number(args.dt)}$",
         fontsize="medium",
     )
     fig.savefig(path, dpi=120)
@@ -463,14 +426,6 @@ def plot_energies(
 
 
 # -- the picture of the deformed body ------------------------------------------------
-
-
-def _vtk_mesh(V):
-    """dolfinx.plot.vtk_mesh (>= 0.7), create_vtk_mesh before: (topology, cell types, points)."""
-    import dolfinx.plot
-
-    function = getattr(dolfinx.plot, "vtk_mesh", None) or dolfinx.plot.create_vtk_mesh
-    return function(V)
 
 
 class Snapshot:
@@ -499,7 +454,7 @@ class Snapshot:
             field = fem.Function(W)
             field.interpolate(compat.expression(expression, W))
             values.append(field.x.array.copy())
-        topology, cell_types, points = _vtk_mesh(W)
+        topology, cell_types, points = compat.vtk_mesh(W)
         index_map = W.dofmap.index_map
         owned = index_map.size_local
         global_index = np.concatenate(
@@ -507,7 +462,8 @@ class Snapshot:
         )
         cells = np.asarray(topology, dtype=np.int64).reshape(len(cell_types), -1)
         cells[:, 1:] = global_index[cells[:, 1:]]
-        local = (cells, cell_types, global_index[:owned], points[:owned], np.stack(values, 1)[:owned])
+        values = np.stack(values, axis=1)
+        local = (cells, cell_types, global_index[:owned], points[:owned], values[:owned])
         parts = mesh.comm.gather(local, root=0)
         self.t = simulation.t
         if mesh.comm.rank != 0:
@@ -537,7 +493,7 @@ def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None
     if snapshot.grid is None:
         print(f"no picture: the run ends before t = {snapshot.at:g}")
         return
-    with _own_symbols():
+    with compat.own_symbols():
         try:
             import pyvista
         except ImportError:
@@ -551,23 +507,6 @@ def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None
     print(f"picture: {path}")
 
 
-@contextlib.contextmanager
-def _own_symbols():
-    """Let the libraries loaded in the block bind their own symbols first (RTLD_DEEPBIND).
-
-    dolfinx 0.5 leaves RTLD_GLOBAL in the dlopen flags after its import, so that its
-    C++ template instances (std::regex among them) come first for every library
-    loaded later; VTK's pip wheels, built with another C++ ABI, then crash in
-    std::regex (std::bad_alloc) when they draw a colour bar.
-    """
-    flags = sys.getdlopenflags()
-    sys.setdlopenflags(os.RTLD_NOW | getattr(os, "RTLD_DEEPBIND", 0))
-    try:
-        yield
-    finally:
-        sys.setdlopenflags(flags)
-
-
 def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> None:
     with contextlib.suppress(ImportError):  # no "bad X server connection" warnings
         from vtkmodules.vtkCommonCore import vtkLogger
@@ -579,32 +518,91 @@ def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> Non
     grid.point_data["displacement"] = displacement
     grid.point_data["von Mises"] = von_mises
     deformed = grid.warp_by_vector("displacement", factor=1.0)
-    # the quadratic faces, subdivided so that the curved body looks curved
+    # the curved (quadratic) faces, subdivided 3 times so that the body looks curved,
+    # and the cell edges, sampled at the same points, so that they lie on that surface
     surface = _surface(deformed, 3)
-    edges = _surface(deformed, 1).extract_all_edges()
-    plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
-    bar = {"title": "von Mises stress", "vertical": True, "position_x": 0.86, "position_y": 0.2}
-    plotter.add_mesh(surface, scalars="von Mises", cmap="jet", scalar_bar_args=bar)
-    plotter.add_mesh(edges, color="black", line_width=0.5, opacity=0.25)
-    bounds = deformed.bounds
-    size = 2.2 * max(bounds[1] - bounds[0], bounds[3] - bounds[2])
+    edges = _curved_edges(pyvista, cells, deformed.points, samples=8)
+    top = 5.0 * np.ceil(np.max(von_mises) / 5.0)  # a round top for the colour scale
+    colours = {"scalars": "von Mises", "cmap": "jet", "clim": (0.0, top)}
+    bar = {
+        "title": "von Mises stress",
+        "n_labels": int(round(top / 5.0)) + 1,
+        "fmt": "%.0f",
+        "position_x": 0.3,
+        "position_y": 0.04,
+        "width": 0.4,
+        "height": 0.06,
+    }
+    text = f"{title}, t = {snapshot.t:.4g}"
     if dim == 3:
-        ground = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=size, j_size=size)
-        plotter.add_mesh(ground, color="lightgray", opacity=0.6)
-        plotter.camera_position = [(95.0, -110.0, 45.0), (0.0, 0.0, 16.0), (0.0, 0.0, 1.0)]
+        plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
+        ground = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
+        camera = [(80.0, -100.0, 38.0), (0.0, 0.0, 13.0), (0.0, 0.0, 1.0)]
+        plotter.subplot(0, 0)
+        plotter.add_mesh(surface, show_scalar_bar=False, **colours)
+        plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
+        plotter.add_mesh(ground, color="lightgray")
+        plotter.camera_position = camera
+        plotter.add_text(text, font_size=11)
+        # the far half of the surface and the cut through the centre, y = 0
+        plotter.subplot(0, 1)
+        far_half = surface.clip(normal=(0, -1, 0), origin=(0, 0, 0))
+        plotter.add_mesh(far_half, show_scalar_bar=False, **colours)
+        cut = deformed.slice(normal=(0, 1, 0), origin=(0, 0, 0))
+        plotter.add_mesh(cut, scalar_bar_args=bar, **colours)
+        plotter.add_mesh(ground, color="lightgray")
+        plotter.camera_position = camera
+        plotter.add_text("cut through the centre, y = 0", font_size=11)
     else:
-        half = size / 2
-        ground = pyvista.Line((-half, 0.0, 0.0), (half, 0.0, 0.0))
-        plotter.add_mesh(ground, color="black", line_width=3)
+        plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
+        plotter.add_mesh(surface, scalar_bar_args=bar, **colours)
+        plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
+        ground = pyvista.Line((-32.0, 0.0, 0.0), (32.0, 0.0, 0.0))
+        plotter.add_mesh(ground, color="black", line_width=4)
         plotter.view_xy()
-    plotter.add_text(f"{title}, t = {snapshot.t:.4g}", font_size=12)
+        plotter.camera.zoom(1.35)
+        plotter.add_text(text, font_size=11)
     plotter.screenshot(path)
     plotter.close()
 
 
 def _surface(grid, subdivision: int):
-    """The boundary of ``grid``, its quadratic faces cut ``subdivision`` times."""
+    """The boundary of ``grid``, its curved faces cut ``subdivision`` times."""
     try:
         return grid.extract_surface(nonlinear_subdivision=subdivision, algorithm="dataset_surface")
     except TypeError:  # pyvista before the ``algorithm`` keyword
         return grid.extract_surface(nonlinear_subdivision=subdivision)
+
+
+#: Edges of the VTK (Lagrange) triangles and tetrahedra, by number of nodes per cell:
+#: (first vertex, second vertex[, middle node]).
+_CELL_EDGES = {
+    3: ((0, 1), (1, 2), (2, 0)),
+    6: ((0, 1, 3), (1, 2, 4), (2, 0, 5)),
+    4: ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)),
+    10: ((0, 1, 4), (1, 2, 5), (2, 0, 6), (0, 3, 7), (1, 3, 8), (2, 3, 9)),
+}
+
+
+def _curved_edges(pyvista, cells: np.ndarray, points: np.ndarray, samples: int):
+    """The edges of all cells as polylines through ``samples + 1`` points each.
+
+    A quadratic edge is the parabola through its two vertices and its middle node.
+    Edges inside a 3D body are hidden by its surface.
+    """
+    nodes = int(cells[0])
+    connectivity = cells.reshape(-1, nodes + 1)[:, 1:]
+    s = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
+    lines = []
+    for edge in _CELL_EDGES[nodes]:
+        first, second = points[connectivity[:, edge[0]]], points[connectivity[:, edge[1]]]
+        line = (1 - s) * first[:, None] + s * second[:, None]
+        if len(edge) == 3:  # the quadratic correction through the middle node
+            middle = points[connectivity[:, edge[2]]]
+            line += 4 * s * (1 - s) * (middle - (first + second) / 2)[:, None]
+        lines.append(line.reshape(-1, 3))
+    polyline_points = np.concatenate(lines)
+    count, length = len(polyline_points) // (samples + 1), samples + 1
+    indices = np.arange(count * length).reshape(count, length)
+    polylines = np.hstack([np.full((count, 1), length), indices]).ravel()
+    return pyvista.PolyData(polyline_points, lines=polylines)

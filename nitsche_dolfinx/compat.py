@@ -8,7 +8,10 @@ itself.
 
 from __future__ import annotations
 
+import contextlib
 import inspect
+import os
+import sys
 
 import numpy as np
 from dolfinx import fem
@@ -23,16 +26,19 @@ __all__ = [
     "expression",
     "dofmap_array",
     "function_space",
+    "has_mumps",
     "geometry_degree",
     "geometry_dofmap",
     "gmsh_model_to_mesh",
     "interpolation_points",
+    "own_symbols",
     "petsc_vector",
     "read_gmsh_file",
     "read_meshtags",
     "set_bc",
     "set_divergence_tolerance",
     "trapezoid",
+    "vtk_mesh",
     "write_meshtags",
 ]
 
@@ -150,6 +156,32 @@ def _scale_keyword(function) -> str:
 _LIFTING_SCALE = _scale_keyword(fem_petsc.apply_lifting)
 
 
+def has_mumps(comm) -> bool:
+    """Whether PETSc can factorise with MUMPS (on every rank), found out by trying."""
+    A = PETSc.Mat().createAIJ([1, 1], nnz=1, comm=PETSc.COMM_SELF)
+    A.setValue(0, 0, 1.0)
+    A.assemble()
+    pc = PETSc.PC().create(PETSc.COMM_SELF)
+    try:
+        pc.setOperators(A)
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        pc.setUp()
+        found = True
+    except PETSc.Error:
+        found = False
+    finally:
+        pc.destroy()
+        A.destroy()
+    return bool(comm.allreduce(found, op=_mpi_land()))
+
+
+def _mpi_land():
+    from mpi4py import MPI
+
+    return MPI.LAND
+
+
 def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> None:
     """Set SNES's divergence tolerance: SNES stops when ||F|| > dtol ||F_0||.
 
@@ -242,3 +274,35 @@ def read_meshtags(xdmf, mesh, name: str):
 def create_connectivity(mesh, d0: int, d1: int) -> None:
     """Build the d0 -> d1 topology connectivity."""
     mesh.topology.create_connectivity(d0, d1)
+
+
+# -- plotting --------------------------------------------------------------------------
+
+
+def vtk_mesh(V):
+    """``(topology, cell types, points)`` of a function space for pyvista.
+
+    ``dolfinx.plot.vtk_mesh`` from 0.7, ``create_vtk_mesh`` before.
+    """
+    import dolfinx.plot
+
+    function = getattr(dolfinx.plot, "vtk_mesh", None) or dolfinx.plot.create_vtk_mesh
+    return function(V)
+
+
+@contextlib.contextmanager
+def own_symbols():
+    """Let the libraries loaded in the block bind their own symbols first (RTLD_DEEPBIND).
+
+    dolfinx 0.5 leaves RTLD_GLOBAL in the dlopen flags after its import, so that its
+    C++ template instances (std::regex among them) come first for every library
+    loaded later; VTK's pip wheels, built with another C++ ABI, then crash in
+    std::regex (std::bad_alloc) when they draw a colour bar. Import pyvista (and
+    render) inside this block.
+    """
+    flags = sys.getdlopenflags()
+    sys.setdlopenflags(os.RTLD_NOW | getattr(os, "RTLD_DEEPBIND", 0))
+    try:
+        yield
+    finally:
+        sys.setdlopenflags(flags)

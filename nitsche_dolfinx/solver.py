@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -19,9 +20,16 @@ from petsc4py import PETSc
 
 from . import compat
 
-__all__ = ["SNESSolver", "SolverError", "DEFAULT_PETSC_OPTIONS", "split_cell_integrals"]
+__all__ = [
+    "DEFAULT_PETSC_OPTIONS",
+    "SNESSolver",
+    "SolverError",
+    "rigid_body_modes",
+    "split_cell_integrals",
+]
 
-#: Newton with a full step and a direct solve: the semismooth Newton of the talk.
+#: Newton with a full step and a direct solve: the semismooth Newton of the talk. The LU
+#: factorisation is MUMPS's where PETSc has it (it is parallel, and uses the BLAS).
 DEFAULT_PETSC_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
     "snes_linesearch_type": "basic",
@@ -80,6 +88,49 @@ def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | No
     cell = [i for i in form.integrals() if i.integral_type() == "cell"]
     rest = [i for i in form.integrals() if i.integral_type() != "cell"]
     return (ufl.Form(cell) if cell else None), (ufl.Form(rest) if rest else None)
+
+
+_MUMPS: dict = {}
+
+
+def _mumps_available(comm) -> bool:
+    """compat.has_mumps, asked once per process."""
+    if "found" not in _MUMPS:
+        _MUMPS["found"] = compat.has_mumps(comm)
+    return _MUMPS["found"]
+
+
+def rigid_body_modes(V) -> list[PETSc.Vec]:
+    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
+
+    gdim translations and the rotations about the coordinate axes: one in 2D,
+    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
+    """
+    gdim = V.mesh.geometry.dim
+
+    def translation(i):
+        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
+
+    def zero(x):
+        return np.zeros(x.shape[1])
+
+    modes = [translation(i) for i in range(gdim)]
+    if gdim == 2:
+        modes.append(lambda x: np.stack((-x[1], x[0])))
+    else:
+        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
+        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
+        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
+    function = fem.Function(V)
+    vectors = []
+    for mode in modes:
+        function.interpolate(mode)
+        vector = compat.petsc_vector(function).copy()
+        for other in vectors:  # Gram-Schmidt
+            vector.axpy(-vector.dot(other), other)
+        vector.normalize()
+        vectors.append(vector)
+    return vectors
 
 
 class SNESSolver:
@@ -141,11 +192,13 @@ class SNESSolver:
         self._split = _AffineCellSplit(F, J, self.bcs) if affine_cell_terms else None
 
         options = {**DEFAULT_PETSC_OPTIONS}
+        if _mumps_available(u.function_space.mesh.comm):
+            options["pc_factor_mat_solver_type"] = "mumps"
         if self.preconditioner_lag > 0:
-            options.update(
-                ksp_type="gmres", ksp_pc_side="right", ksp_rtol=1e-12, ksp_atol=1e-14, ksp_max_it=200
-            )
-        options.update(petsc_options or {})
+            options.update(ksp_type="gmres", ksp_pc_side="right", ksp_max_it=200)
+            options.update(ksp_rtol=1e-12, ksp_atol=1e-14)
+        user_options = dict(petsc_options or {})
+        options.update(user_options)
         comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
@@ -158,13 +211,27 @@ class SNESSolver:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
         compat.set_divergence_tolerance(self.snes, 1.0e300)  # contact residuals may jump
         inserted = self._insert_options(options)
+        # The database is global and bounded (512 entries in PETSc 3.18): take the
+        # defaults out once read; the user's options stay until destroy(), since some
+        # (monitors, converged-reason views) are read again at every solve.
+        self._user_option_names = [
+            name for name in inserted if name[len(self.options_prefix) :] in user_options
+        ]
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
         finally:
-            # the database is global and bounded: take our entries out again
             for name in inserted:
-                PETSc.Options().delValue(name)
+                if name not in self._user_option_names:
+                    PETSc.Options().delValue(name)
+
+    def set_near_nullspace(self, vectors: list[PETSc.Vec]) -> None:
+        """Give algebraic multigrid (``pc_type gamg``) the near-nullspace of the Jacobian,
+        e.g. :func:`rigid_body_modes`."""
+        nullspace = PETSc.NullSpace().create(vectors=vectors, comm=self.u.function_space.mesh.comm)
+        self._A.setNearNullSpace(nullspace)
+        if self._P is not None:
+            self._P.setNearNullSpace(nullspace)
 
     def _insert_options(self, options: dict[str, Any]) -> list[str]:
         """Put ``options`` in the database under our prefix, except those the user set there."""
@@ -255,6 +322,8 @@ class SNESSolver:
             objects.extend(self._split.petsc_objects())
         for obj in objects:
             obj.destroy()
+        for name in self._user_option_names:
+            PETSc.Options().delValue(name)
 
 
 class _AffineCellSplit:
