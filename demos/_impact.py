@@ -16,15 +16,18 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import sys
 import time
 
 import numpy as np
 from dolfinx import fem
 from mpi4py import MPI
-from petsc4py import PETSc
 
-from nitsche_dolfinx import HISTORY_COLUMNS, SCHEMES, Simulation, SolverError, compat, make_scheme
+from nitsche_dolfinx import HISTORY_COLUMNS, Simulation, compat, make_scheme
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    finite_float,
+    petsc_option,
+)
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.solver import rigid_body_modes
 
@@ -53,52 +56,14 @@ COMPARED_SCHEMES = {
 # -- command line ----------------------------------------------------------------------
 
 
-def finite_float(text: str) -> float:
-    """A float flag; ``nan`` and ``inf`` are refused here, range checks are the library's."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not np.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
-
-
-def petsc_option(text: str) -> tuple[str, str | None]:
-    """``KEY=VALUE`` (or ``KEY`` alone, for a switch such as ``ksp_monitor``) as a pair."""
-    key, has_value, value = text.partition("=")
-    key = key.strip().lstrip("-")
-    if not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    return key, (value.strip() if has_value and value.strip() else None)
-
-
 def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
     """The command-line parser of the ball and disk demos (SPEC section 6)."""
     parser = argparse.ArgumentParser(
         description=description, formatter_class=argparse.ArgumentDefaultsHelpFormatter
     )
-    parser.add_argument("--scheme", choices=SCHEMES, default="hybrid", help="time scheme")
-    parser.add_argument("--theta", type=finite_float, default=1.0, help="theta of the theta-scheme")
-    parser.add_argument(
-        "--beta", type=finite_float, default=0.5, help="Newmark beta (1/2: stable, as in the talk)"
-    )
-    parser.add_argument(
-        "--gamma", type=finite_float, default=1.0, help="Newmark gamma (1: stable, as in the talk)"
-    )
-    parser.add_argument(
-        "--nitsche-theta",
-        type=finite_float,
-        default=1.0,
-        help="Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric",
-    )
-    parser.add_argument(
-        "--gamma0", type=finite_float, default=1e-3, help="Nitsche parameter, gamma_h = gamma0 h"
-    )
-    parser.add_argument("--degree", type=int, default=2, help="Lagrange degree (1 or 2)")
+    # Newmark (1/2, 1): the stable member the talk compares with
+    add_method_arguments(parser, gamma0=1e-3, degree=2, dt=0.1, t_end=40.0, beta=0.5, gamma=1.0)
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
-    parser.add_argument("--dt", type=finite_float, default=0.1, help="time step tau")
-    parser.add_argument("--t-end", type=finite_float, default=40.0, help="final time T")
     parser.add_argument(
         "--output-every",
         type=int,
@@ -130,25 +95,6 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         help="also run the other schemes of the talk's energy figure (into OUT/<scheme>)",
     )
     return parser
-
-
-@contextlib.contextmanager
-def one_line_errors(parser: argparse.ArgumentParser):
-    """Turn a bad parameter, a Newton failure or a PETSc error into one line and exit status 2."""
-    try:
-        yield
-    except (ValueError, SolverError, PETSc.Error) as error:
-        if MPI.COMM_WORLD.rank == 0:
-            print(f"{parser.prog}: error: {_one_line(error)}", file=sys.stderr)
-        sys.exit(2)
-
-
-def _one_line(error: Exception) -> str:
-    """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
-    if isinstance(error, PETSc.Error):
-        lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]
-        return f"PETSc {lines[0]}: {lines[-1]}" if len(lines) > 1 else f"PETSc {lines[0]}"
-    return " ".join(str(error).split()) or type(error).__name__
 
 
 # -- linear solvers --------------------------------------------------------------------

@@ -145,13 +145,14 @@ from _impact import (
     Snapshot,
     compared_runs,
     make_parser,
-    one_line_errors,
     plot_energies,
     print_summary,
     render_deformed,
     run,
 )
 from mpi4py import MPI
+
+from nitsche_dolfinx.arguments import one_line_errors
 
 DIM = 3
 # -

@@ -112,12 +112,12 @@
 # +
 import argparse
 import os
-import sys
 
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx import SCHEMES, Simulation, SolverError, make_scheme
+from nitsche_dolfinx import Simulation
+from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
 from nitsche_dolfinx.cases import add_bar_probes, bar_problem
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
@@ -132,17 +132,6 @@ SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
 # those of the talk. Only Nitsche's method is available for now.
 
 
-def finite_float(text: str) -> float:
-    """A float flag; ``nan`` and ``inf`` are refused here, range checks are the library's."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not np.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
-
-
 def make_parser() -> argparse.ArgumentParser:
     """The command-line parser of the demo (flags of SPEC section 6)."""
     parser = argparse.ArgumentParser(
@@ -155,23 +144,8 @@ def make_parser() -> argparse.ArgumentParser:
         default="nitsche",
         help="contact method (only nitsche so far)",
     )
-    parser.add_argument("--scheme", choices=SCHEMES, default="hybrid", help="time scheme")
-    parser.add_argument("--theta", type=finite_float, default=1.0, help="theta of the theta-scheme")
-    parser.add_argument("--beta", type=finite_float, default=0.25, help="Newmark beta")
-    parser.add_argument("--gamma", type=finite_float, default=0.5, help="Newmark gamma")
-    parser.add_argument(
-        "--nitsche-theta",
-        type=finite_float,
-        default=1.0,
-        help="Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric",
-    )
-    parser.add_argument(
-        "--gamma0", type=finite_float, default=1e-6, help="Nitsche parameter, gamma_h = gamma0 h"
-    )
-    parser.add_argument("--degree", type=int, default=1, help="Lagrange degree (1 or 2)")
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
-    parser.add_argument("--dt", type=finite_float, default=0.015, help="time step tau")
-    parser.add_argument("--t-end", type=finite_float, default=6.0, help="final time T")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     parser.add_argument(
@@ -207,7 +181,7 @@ def bar_simulation(args: argparse.Namespace, scheme_name: str) -> Simulation:
     Raises:
         ValueError: If a parameter is out of range.
     """
-    scheme = make_scheme(scheme_name, theta=args.theta, beta=args.beta, gamma=args.gamma)
+    scheme = scheme_from_arguments(args, scheme_name)
     problem = bar_problem(
         nx=args.nx, degree=args.degree, gamma0=args.gamma0, nitsche_theta=args.nitsche_theta
     )
@@ -353,17 +327,12 @@ def main(argv: list[str] | None = None) -> None:
     """Run the demo with the command-line arguments ``argv``."""
     parser = make_parser()
     args = parser.parse_args(argv)
-    rank = MPI.COMM_WORLD.rank
-    try:
+    with one_line_errors(parser):
         results = [run(args, args.scheme, args.out)]
         if args.compare and args.scheme != "cn":
             results.append(run(args, "cn", os.path.join(args.out, "cn")))
-    except (ValueError, SolverError) as error:
-        if rank == 0:
-            print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        sys.exit(2)
 
-    if rank == 0:
+    if MPI.COMM_WORLD.rank == 0:
         print_summary(results, args.dt)
         for result in results:
             print(f"history: {os.path.join(result['out'], 'history.csv')}")

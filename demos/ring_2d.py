@@ -110,22 +110,13 @@
 # +
 import argparse
 import os
-import sys
 import time
 
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx import (
-    HISTORY_COLUMNS,
-    SCHEMES,
-    ContactProblem,
-    Material,
-    PlaneObstacle,
-    Simulation,
-    SolverError,
-    make_scheme,
-)
+from nitsche_dolfinx import HISTORY_COLUMNS, ContactProblem, Material, PlaneObstacle, Simulation
+from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
 from nitsche_dolfinx.meshes import load_mesh
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -146,39 +137,13 @@ INITIAL_VELOCITY = (0.0, -1.0)
 # the library's: a bad value stops the demo with a one-line message naming it.
 
 
-def finite_float(text: str) -> float:
-    """A float flag; ``nan`` and ``inf`` are refused here, range checks are the library's."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not np.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
-
-
 def make_parser() -> argparse.ArgumentParser:
     """The command-line parser of the demo."""
     parser = argparse.ArgumentParser(
         description="2D bouncing elastic ring: dynamic contact by Nitsche's method.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    parser.add_argument("--scheme", choices=SCHEMES, default="hybrid", help="time scheme")
-    parser.add_argument("--theta", type=finite_float, default=1.0, help="theta of the theta-scheme")
-    parser.add_argument("--beta", type=finite_float, default=0.25, help="Newmark beta")
-    parser.add_argument("--gamma", type=finite_float, default=0.5, help="Newmark gamma")
-    parser.add_argument(
-        "--nitsche-theta",
-        type=finite_float,
-        default=1.0,
-        help="Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric",
-    )
-    parser.add_argument(
-        "--gamma0", type=finite_float, default=1e-6, help="Nitsche parameter, gamma_h = gamma0 h"
-    )
-    parser.add_argument("--degree", type=int, default=1, help="Lagrange degree (1 or 2)")
-    parser.add_argument("--dt", type=finite_float, default=0.005, help="time step tau")
-    parser.add_argument("--t-end", type=finite_float, default=1.0, help="final time T")
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.005, t_end=1.0)
     parser.add_argument(
         "--output-every",
         type=int,
@@ -210,7 +175,7 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
     """
     if args.output_every < 0:
         raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
-    scheme = make_scheme(args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
+    scheme = scheme_from_arguments(args)
     mesh, facet_tags = load_mesh(args.mesh)
     if mesh.geometry.dim != 2:
         raise ValueError(f"mesh {args.mesh!r} is {mesh.geometry.dim}D, the ring is 2D")
@@ -342,18 +307,13 @@ def main(argv: list[str] | None = None) -> None:
     """Run the demo with the command-line arguments ``argv``."""
     parser = make_parser()
     args = parser.parse_args(argv)
-    rank = MPI.COMM_WORLD.rank
     start = time.perf_counter()
-    try:
+    with one_line_errors(parser):
         simulation = ring_simulation(args)
         records = simulation.run(out=args.out, output_every=args.output_every)
-    except (ValueError, SolverError) as error:
-        if rank == 0:
-            print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        sys.exit(2)
     seconds = time.perf_counter() - start
 
-    if rank == 0:
+    if MPI.COMM_WORLD.rank == 0:
         history = {name: np.array([r[name] for r in records]) for name in HISTORY_COLUMNS}
         summarize(history, seconds)
         print(f"history: {os.path.join(args.out, 'history.csv')}")
