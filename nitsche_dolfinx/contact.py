@@ -19,6 +19,7 @@ from .material import sigma_n
 
 __all__ = [
     "NitscheContact",
+    "PenaltyContact",
     "heaviside",
     "hybrid_contact_force",
     "nitsche_projection",
@@ -151,3 +152,31 @@ class NitscheContact:
     def area(self, u):
         """Contact area int H(P_gamma(u)) as a form."""
         return heaviside(self.projection(u)) * self.ds
+
+
+class PenaltyContact(NitscheContact):
+    """Penalised contact, for comparison: the term ``int (1/eps) [u_n - g]_+ v_n`` with
+    ``eps = gamma0 h_T``.
+
+    It is the Nitsche term without the stress: ``P = u_n - g`` and ``P_Thgamma(v) = v_n``,
+    so every scheme (the hybrid switch included) and every diagnostic carry over.
+    Unlike Nitsche's method it is not consistent: the penetration is O(eps).
+    ``energy_theta`` then holds E plus the penalty energy ``||eps^-1/2 [u_n - g]_+||^2 / 2``,
+    which the semi-discrete problem conserves.
+    """
+
+    def projection(self, u):
+        """u_n - g."""
+        return self.normal_displacement(u) - self.gap
+
+    def test_projection(self, v):
+        """v_n."""
+        return self.normal_displacement(v)
+
+    def consistency_term(self, u, v):
+        """No stress term: zero."""
+        return 0 * ufl.inner(u, v) * self.ds
+
+    def energy_correction(self, u):
+        """The penalty energy ``1/(2 eps) ||[u_n - g]_+||^2``."""
+        return positive_part(self.projection(u)) ** 2 / (2 * self.gamma_h) * self.ds

@@ -43,6 +43,17 @@ class BoundaryAverage:
         return assemble_global(self._integral, self.comm) / self._measure
 
 
+def _diagonal_matrix(diagonal):
+    """A PETSc AIJ matrix with the given diagonal."""
+    from petsc4py import PETSc
+
+    matrix = PETSc.Mat().createAIJ(
+        (diagonal.getSizes(), diagonal.getSizes()), nnz=1, comm=diagonal.getComm()
+    )
+    matrix.setDiagonal(diagonal)
+    return matrix
+
+
 def _total(forms: list, zero):
     """The sum of a list of forms, or ``zero`` for an empty list."""
     return sum(forms[1:], forms[0]) if forms else zero
@@ -62,7 +73,11 @@ class Diagnostics:
         self.u, self.v = u, v
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
-        self._mass = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+        diagonal = model.mass_diagonal()
+        if diagonal is None:
+            self._mass = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+        else:  # lumped or redistributed mass: a diagonal matrix
+            self._mass = _diagonal_matrix(diagonal)
         self._mass.assemble()
         self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
         self._stiffness.assemble()

@@ -90,6 +90,44 @@ def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | No
     return (ufl.Form(cell) if cell else None), (ufl.Form(rest) if rest else None)
 
 
+class Forms:
+    """A UFL form compiled as one dolfinx form per quadrature rule.
+
+    FFCx 0.5 cannot generate one form whose integrals use different quadrature
+    rules (a lumped mass by vertex quadrature next to Gauss quadrature), so each
+    rule gets its own compiled form; they are assembled one after the other.
+    """
+
+    def __init__(self, form: ufl.Form):
+        groups: dict[str, list] = {}
+        for integral in form.integrals():
+            rule = integral.metadata().get("quadrature_rule", "default")
+            groups.setdefault(rule, []).append(integral)
+        # the default rule first: its form carries the whole sparsity (bulk and facets)
+        rules = sorted(groups, key=lambda rule: rule != "default")
+        self.forms = [fem.form(ufl.Form(groups[rule])) for rule in rules]
+
+    def assemble_vector(self, b: PETSc.Vec) -> None:
+        """Add the form to the (local form of the) vector ``b``."""
+        for form in self.forms:
+            fem_petsc.assemble_vector(b, form)
+
+    def assemble_matrix(self, A: PETSc.Mat, bcs=(), diagonal: float = 1.0) -> None:
+        """Add the form to ``A``; Dirichlet rows get ``diagonal`` once."""
+        last = len(self.forms) - 1
+        for i, form in enumerate(self.forms):
+            fem_petsc.assemble_matrix(A, form, list(bcs), diagonal if i == last else 0.0)
+
+    def apply_lifting(self, b: PETSc.Vec, bcs, x0, alpha: float) -> None:
+        """Lifting of the Dirichlet values, form by form (it is linear in the form)."""
+        for form in self.forms:
+            compat.apply_lifting(b, form, bcs, x0, alpha)
+
+    def create_matrix(self) -> PETSc.Mat:
+        """A matrix with the sparsity of the form."""
+        return compat.create_matrix(self.forms[0])
+
+
 _MUMPS: dict = {}
 
 
@@ -151,6 +189,9 @@ class SNESSolver:
             product, and each Newton iteration assembles only the facet terms. When
             those have not changed since the last iteration the Jacobian is left
             untouched, so that PETSc reuses its factorisation.
+        mass_diagonal: A diagonal matrix D (as a vector) added to the problem:
+            F(u) + D u and J + D. A lumped mass is given this way: FFCx 0.5 cannot
+            compile vertex quadrature.
         preconditioner_lag: With ``affine_cell_terms``: keep factorising the Jacobian
             only when the last linear solve needed more than this many Krylov
             iterations, and solve with GMRES preconditioned by the last factorised
@@ -171,17 +212,25 @@ class SNESSolver:
         options_prefix: str | None = None,
         affine_cell_terms: bool = False,
         preconditioner_lag: int = 0,
+        mass_diagonal: PETSc.Vec | None = None,
     ):
         self.u = u
         self.bcs = list(bcs)
         if J is None:
             J = ufl.derivative(F, u, ufl.TrialFunction(u.function_space))
-        self.F_form = fem.form(F)
-        self.J_form = fem.form(J)
+        self.F_forms = Forms(F)
+        self.J_forms = Forms(J)
+        self._D, self._D_bc = None, None
+        if mass_diagonal is not None:
+            self._D = mass_diagonal
+            self._D_bc = mass_diagonal.copy()  # zero on Dirichlet rows: they stay identity
+            compat.set_bc(self._D_bc, self.bcs, None, 0.0)
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)
-        self._A = compat.create_matrix(self.J_form)
+        self._A = self.J_forms.create_matrix()
+        if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
+            self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._P = None
         #: Jacobian evaluations asked by SNES, actual changes of the Jacobian, and
         #: changes of the matrix PETSc factorises (the Jacobian itself, or a lagged copy)
@@ -189,7 +238,9 @@ class SNESSolver:
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
         self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
-        self._split = _AffineCellSplit(F, J, self.bcs) if affine_cell_terms else None
+        self._split = (
+            _AffineCellSplit(F, J, self.bcs, self._D, self._D_bc) if affine_cell_terms else None
+        )
 
         options = {**DEFAULT_PETSC_OPTIONS}
         if _mumps_available(u.function_space.mesh.comm):
@@ -205,7 +256,7 @@ class SNESSolver:
         self.snes.setOptionsPrefix(self.options_prefix)
         self.snes.setFunction(self._assemble_residual, self._b)
         if self.preconditioner_lag > 0:
-            self._P = compat.create_matrix(self.J_form)
+            self._P = self.J_forms.create_matrix()
             self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
         else:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
@@ -252,13 +303,15 @@ class SNESSolver:
         with b.localForm() as b_local:
             b_local.set(0.0)
         if self._split is None:
-            fem_petsc.assemble_vector(b, self.F_form)
+            self.F_forms.assemble_vector(b)
         elif self._split.F_facet is not None:
-            fem_petsc.assemble_vector(b, self._split.F_facet)
-        compat.apply_lifting(b, self.J_form, self.bcs, x, -1.0)
+            self._split.F_facet.assemble_vector(b)
+        self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self._split is not None:
             self._split.add_cell_residual(x, b)
+        elif self._D is not None:
+            _add_diagonal_product(b, self._D, x)
         compat.set_bc(b, self.bcs, x, -1.0)
 
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
@@ -267,8 +320,11 @@ class SNESSolver:
             # the whole Jacobian: always without a split, and once with one (it gives A
             # its full sparsity, which the cheaper updates below then keep)
             A.zeroEntries()
-            fem_petsc.assemble_matrix(A, self.J_form, self.bcs)
+            self.J_forms.assemble_matrix(A, self.bcs)
             A.assemble()
+            if self._D is not None:
+                A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
+                A.assemble()
             if self._split is not None:
                 self._split.facet_jacobian_changed()  # remember the facet part
         elif self._split.facet_jacobian_changed():
@@ -282,7 +338,7 @@ class SNESSolver:
         ksp = snes.getKSP()
         if self.preconditioner_updates == 0 or ksp.getIterationNumber() > self.preconditioner_lag:
             if self.preconditioner_updates == 0:  # gives P its structure
-                fem_petsc.assemble_matrix(P, self.J_form, self.bcs)
+                self.J_forms.assemble_matrix(P, self.bcs)
                 P.assemble()
             A.copy(P, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.preconditioner_updates += 1
@@ -326,6 +382,14 @@ class SNESSolver:
             PETSc.Options().delValue(name)
 
 
+def _add_diagonal_product(b: PETSc.Vec, D: PETSc.Vec, x: PETSc.Vec) -> None:
+    """b += D x for a diagonal matrix D given as a vector (owned entries)."""
+    product = D.duplicate()
+    product.pointwiseMult(D, x)
+    b.axpy(1.0, product)
+    product.destroy()
+
+
 class _AffineCellSplit:
     """The cell terms of an affine-in-the-bulk problem, assembled once, and the facet terms.
 
@@ -334,24 +398,31 @@ class _AffineCellSplit:
     (``K_bc``: with the Dirichlet rows and columns replaced by the identity).
     """
 
-    def __init__(self, F: ufl.Form, J: ufl.Form, bcs):
+    def __init__(self, F: ufl.Form, J: ufl.Form, bcs, D=None, D_bc=None):
         self.bcs = bcs
         F_cell, F_facet = split_cell_integrals(F)
         J_cell, J_facet = split_cell_integrals(J)
         if F_cell is None or J_cell is None:
             raise ValueError("affine_cell_terms needs cell integrals in F and J")
-        self.F_cell = fem.form(F_cell)
-        self.F_facet = fem.form(F_facet) if F_facet is not None else None
-        self.J_facet = fem.form(J_facet) if J_facet is not None else None
-        J_cell = fem.form(J_cell)
-        self.K = fem_petsc.assemble_matrix(J_cell)
+        self.F_cell = Forms(F_cell)
+        self.F_facet = Forms(F_facet) if F_facet is not None else None
+        self.J_facet = Forms(J_facet) if J_facet is not None else None
+        J_cell = Forms(J_cell)
+        self.K = J_cell.create_matrix()
+        J_cell.assemble_matrix(self.K)
         self.K.assemble()
-        self.K_bc = fem_petsc.assemble_matrix(J_cell, bcs, 1.0)
+        self.K_bc = J_cell.create_matrix()
+        J_cell.assemble_matrix(self.K_bc, bcs, 1.0)
         self.K_bc.assemble()
+        if D is not None:  # a diagonal (lumped) mass belongs to the constant cell terms
+            self.K.setDiagonal(D, addv=PETSc.InsertMode.ADD)
+            self.K.assemble()
+            self.K_bc.setDiagonal(D_bc, addv=PETSc.InsertMode.ADD)
+            self.K_bc.assemble()
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
         # the facet Jacobian lives on a much smaller sparsity than J
-        self.B = fem_petsc.create_matrix(self.J_facet) if self.J_facet is not None else None
+        self.B = self.J_facet.create_matrix() if self.J_facet is not None else None
         self.B_last = None
 
     def update_cell_residual(self, u: fem.Function) -> None:
@@ -360,7 +431,7 @@ class _AffineCellSplit:
         u.x.array[:] = 0.0
         with self.F0.localForm() as local:
             local.set(0.0)
-        fem_petsc.assemble_vector(self.F0, self.F_cell)
+        self.F_cell.assemble_vector(self.F0)
         self.F0.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         u.x.array[:] = saved
 
@@ -375,7 +446,7 @@ class _AffineCellSplit:
             first, self.B_last = self.B_last is None, True
             return first
         self.B.zeroEntries()
-        fem_petsc.assemble_matrix(self.B, self.J_facet, self.bcs, 0.0)
+        self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
         if self.B_last is not None and self.B.equal(self.B_last):
             return False

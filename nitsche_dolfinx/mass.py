@@ -1,0 +1,100 @@
+"""Lumped and redistributed (modified) mass matrices, as diagonals.
+
+- lumped: the row sums of the consistent mass matrix (P1: all positive);
+- redistributed (Khenous, Laborde & Renard 2008): the lumped mass with the mass of
+  the nodes of Gamma_C set to zero and moved to the other nodes of the cells
+  around them, so that the total mass is kept. With massless contact nodes the
+  semi-discrete contact problem is well posed (the contact node follows the
+  constraint instantly) and Crank-Nicolson loses its spurious oscillations of
+  the contact displacement.
+
+Both are returned as PETSc vectors with the layout of the displacement space:
+the diagonal of the mass matrix, the same for every component of a node.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+from . import compat
+
+__all__ = ["lumped_mass", "redistributed_mass"]
+
+
+def _accumulate(vec: PETSc.Vec) -> None:
+    """Add ghost contributions to their owners, then copy owners back to the ghosts."""
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+
+def lumped_mass(V, rho: float) -> PETSc.Vec:
+    """Row sums of the consistent mass matrix ``int rho u . v`` on the vector space ``V``."""
+    ones = fem.Constant(V.mesh, np.ones(V.mesh.geometry.dim))
+    mass = compat.create_vector(V)
+    with mass.localForm() as local:
+        local.set(0.0)
+    fem_petsc.assemble_vector(mass, fem.form(rho * ufl.inner(ones, ufl.TestFunction(V)) * ufl.dx))
+    _accumulate(mass)
+    return mass
+
+
+def redistributed_mass(V, rho: float, contact_facets) -> PETSc.Vec:
+    """The lumped mass with the mass of the contact nodes moved to their neighbours (P1).
+
+    Each cell's share of the mass of a contact node, ``rho |T| / (d + 1)``, goes in
+    equal parts to the cell's nodes that are not on Gamma_C (a cell whose nodes are
+    all on Gamma_C keeps it). The moves are summed over the owned cells of each
+    rank, so the result does not depend on the number of ranks.
+
+    Args:
+        V: The (P1, vector) displacement space.
+        rho: The density.
+        contact_facets: Local indices of the facets of Gamma_C.
+    """
+    mesh = V.mesh
+    tdim = mesh.topology.dim
+    bs = V.dofmap.index_map_bs
+    mass = lumped_mass(V, rho)
+    with mass.localForm() as local:
+        nodal = local.array.reshape(-1, bs)[:, 0].copy()  # the same for every component
+
+    on_contact = np.zeros(len(nodal))
+    on_contact[fem.locate_dofs_topological(V, tdim - 1, contact_facets)] = 1.0
+    flag = compat.create_vector(V)  # a node on Gamma_C for any rank is one for all
+    with flag.localForm() as local:
+        local.array.reshape(-1, bs)[:] = on_contact[:, None]
+    _accumulate(flag)
+    with flag.localForm() as local:
+        contact_node = local.array.reshape(-1, bs)[:, 0] > 0
+
+    D = compat.function_space(mesh, "DG", 0)
+    cell_volume = fem.Function(D)
+    fem_petsc.assemble_vector(
+        compat.petsc_vector(cell_volume), fem.form(ufl.TestFunction(D) * ufl.dx)
+    )
+    num_owned = mesh.topology.index_map(tdim).size_local
+    cells = compat.dofmap_array(V)[:num_owned]  # blocked dofs = nodes
+    volumes = cell_volume.x.array[compat.dofmap_array(D)[:num_owned, 0]]
+    contact = contact_node[cells]
+    free = ~contact
+    moving = contact.any(axis=1) & free.any(axis=1)
+    share = rho * volumes[moving] / cells.shape[1]  # one node's mass in the cell
+    leaving = contact[moving].sum(axis=1)
+    arriving = free[moving].sum(axis=1)
+    change = np.zeros(len(nodal))
+    np.add.at(change, cells[moving][contact[moving]], -np.repeat(share, leaving))
+    np.add.at(change, cells[moving][free[moving]], np.repeat(share * leaving / arriving, arriving))
+
+    moved = compat.create_vector(V)
+    with moved.localForm() as local:
+        local.array.reshape(-1, bs)[:] = change[:, None]
+    _accumulate(moved)
+    mass.axpy(1.0, moved)
+    with mass.localForm() as local:
+        values = local.array.reshape(-1, bs)
+        values[contact_node] = 0.0  # exactly zero, not round-off
+    return mass
