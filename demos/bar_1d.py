@@ -116,11 +116,12 @@ import os
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx import Simulation
+from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
-from nitsche_dolfinx.cases import add_bar_probes, bar_problem
+from nitsche_dolfinx.cases import BAR_METHODS
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.problem import MASS_MATRICES
 
 # Names of the schemes in the figure and the summary
 SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
@@ -129,7 +130,9 @@ SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
 # ### Command line
 #
 # Every parameter of the method and of the scheme is a flag; the defaults are
-# those of the talk. Only Nitsche's method is available for now.
+# those of the talk. `--method` also offers the penalty method and the mixed
+# method (a Lagrange multiplier, Crank-Nicolson only), and `--mass` the lumped
+# and the redistributed (modified) mass of Khenous, Laborde & Renard.
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -140,10 +143,11 @@ def make_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--method",
-        choices=("nitsche",),
+        choices=BAR_METHODS,
         default="nitsche",
-        help="contact method (only nitsche so far)",
+        help="contact method (mixed: Lagrange multiplier, with --scheme cn)",
     )
+    parser.add_argument("--mass", choices=MASS_MATRICES, default="consistent", help="mass matrix")
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
@@ -170,24 +174,30 @@ def make_parser() -> argparse.ArgumentParser:
 # reduced over MPI, so every rank sees the same numbers.
 
 
-def bar_simulation(args: argparse.Namespace, scheme_name: str) -> Simulation:
-    """The bar of SPEC section 5 with the parameters of ``args`` and the scheme ``scheme_name``.
+def bar_simulation(args: argparse.Namespace, scheme_name: str, method: str):
+    """The bar of SPEC section 5 with the parameters of ``args``.
 
-    ``bar_problem`` is a dozen lines of the public API: ``bar_mesh``, a
-    ``ContactProblem`` with ``Material(E=1, nu=0, rho=1)``, ``add_dirichlet`` at
-    ``BAR_CLAMPED``, ``add_obstacle(PlaneObstacle([0.0], [1.0]), BAR_CONTACT)`` and
-    ``set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)``.
+    ``nitsche_dolfinx.cases.bar_problem`` is a dozen lines of the public API:
+    ``bar_mesh``, a ``ContactProblem`` with ``Material(E=1, nu=0, rho=1)``,
+    ``add_dirichlet`` at ``BAR_CLAMPED``, ``add_obstacle(PlaneObstacle([0.0],
+    [1.0]), BAR_CONTACT)`` and ``set_initial_conditions(displacement=lambda x:
+    0.5 - x[0] / 2)``; ``cases.bar_simulation`` adds the scheme and the probes
+    u_contact, v_contact and sigma_contact at x = 0.
 
     Raises:
         ValueError: If a parameter is out of range.
     """
-    scheme = scheme_from_arguments(args, scheme_name)
-    problem = bar_problem(
-        nx=args.nx, degree=args.degree, gamma0=args.gamma0, nitsche_theta=args.nitsche_theta
+    return cases.bar_simulation(
+        scheme_from_arguments(args, scheme_name),
+        method=method,
+        mass=args.mass,
+        dt=args.dt,
+        t_end=args.t_end,
+        nx=args.nx,
+        degree=args.degree,
+        gamma0=args.gamma0,
+        nitsche_theta=args.nitsche_theta,
     )
-    sim = Simulation(problem, scheme, dt=args.dt, t_end=args.t_end)
-    add_bar_probes(sim)  # u_contact, v_contact and sigma_contact at x = 0
-    return sim
 
 
 # ### Running and measuring
@@ -201,17 +211,18 @@ def bar_simulation(args: argparse.Namespace, scheme_name: str) -> Simulation:
 # iterations per step.
 
 
-def run(args: argparse.Namespace, scheme_name: str, out: str) -> dict:
+def run(args: argparse.Namespace, scheme_name: str, out: str, method: str) -> dict:
     """Run the bar with the scheme ``scheme_name``, writing ``out/history.csv``.
 
     Returns:
         The history as a dict of column arrays, with the run's ``label`` and ``out``.
     """
-    sim = bar_simulation(args, scheme_name)
+    sim = bar_simulation(args, scheme_name, method)
     records = sim.run(out=out, columns=COLUMNS)
     history = {name: np.array([record[name] for record in records]) for name in COLUMNS}
     label = SCHEME_LABELS.get(scheme_name, sim.scheme.describe())
-    return {"label": f"Nitsche + {label}", "out": out, **history}
+    mass = "" if args.mass == "consistent" else f", {args.mass} mass"
+    return {"label": f"{method.capitalize()} + {label}{mass}", "out": out, **history}
 
 
 def measure(result: dict, dt: float) -> dict:
@@ -328,9 +339,9 @@ def main(argv: list[str] | None = None) -> None:
     parser = make_parser()
     args = parser.parse_args(argv)
     with one_line_errors(parser):
-        results = [run(args, args.scheme, args.out)]
-        if args.compare and args.scheme != "cn":
-            results.append(run(args, "cn", os.path.join(args.out, "cn")))
+        results = [run(args, args.scheme, args.out, args.method)]
+        if args.compare and (args.scheme, args.method) != ("cn", "nitsche"):
+            results.append(run(args, "cn", os.path.join(args.out, "cn"), "nitsche"))
 
     if MPI.COMM_WORLD.rank == 0:
         print_summary(results, args.dt)

@@ -10,7 +10,17 @@ from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
 from .obstacles import PlaneObstacle
 from .problem import ContactProblem
 
-__all__ = ["BAR_COLUMNS", "add_bar_probes", "bar_problem", "impact_problem"]
+__all__ = [
+    "BAR_COLUMNS",
+    "BAR_METHODS",
+    "add_bar_probes",
+    "bar_problem",
+    "bar_simulation",
+    "impact_problem",
+]
+
+#: Contact methods of the bar: Nitsche, penalty, and the mixed method (CN only).
+BAR_METHODS = ("nitsche", "penalty", "mixed")
 
 #: Columns of the bar demo's ``history.csv`` (SPEC section 6).
 BAR_COLUMNS = (
@@ -30,9 +40,12 @@ def bar_problem(
     gamma0: float = 1e-6,
     nitsche_theta: float = 1.0,
     comm=MPI.COMM_WORLD,
+    method: str = "nitsche",
+    mass: str = "consistent",
 ) -> ContactProblem:
     """The 1D bar with multiple impacts: (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0,
-    u0 = 1/2 - x/2, v0 = 0."""
+    u0 = 1/2 - x/2, v0 = 0. ``method`` "mixed" gives the Nitsche problem, whose obstacle
+    :class:`~nitsche_dolfinx.mixed.MixedSimulation` then treats by a multiplier."""
     mesh, tags = bar_mesh(nx, comm=comm)
     problem = ContactProblem(
         mesh,
@@ -41,11 +54,46 @@ def bar_problem(
         degree=degree,
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,
+        method="nitsche" if method == "mixed" else method,
+        mass=mass,
     )
     problem.add_dirichlet(BAR_CLAMPED, 0.0)
     problem.add_obstacle(PlaneObstacle(point=[0.0], normal=[1.0]), BAR_CONTACT)
     problem.set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)
     return problem
+
+
+def bar_simulation(
+    scheme,
+    method: str = "nitsche",
+    mass: str = "consistent",
+    dt: float = 0.015,
+    t_end: float = 6.0,
+    comm=MPI.COMM_WORLD,
+    **problem_parameters,
+):
+    """The bar ready to run with ``method`` (see :data:`BAR_METHODS`), its probes added.
+
+    The mixed method is time-discretised by Crank-Nicolson only
+    (:class:`~nitsche_dolfinx.mixed.MixedSimulation`); ``scheme`` must then be CN.
+    """
+    from .mixed import MixedSimulation
+    from .problem import Simulation
+
+    if method not in BAR_METHODS:
+        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(BAR_METHODS)}")
+    problem = bar_problem(comm=comm, method=method, mass=mass, **problem_parameters)
+    if method == "mixed":
+        if scheme.name != "cn":
+            raise ValueError(
+                f"the mixed method is time-discretised by Crank-Nicolson only, got --scheme "
+                f"{scheme.name}"
+            )
+        simulation = MixedSimulation(problem, dt=dt, t_end=t_end)
+    else:
+        simulation = Simulation(problem, scheme, dt=dt, t_end=t_end)
+    add_bar_probes(simulation)
+    return simulation
 
 
 def add_bar_probes(simulation) -> None:
@@ -56,7 +104,11 @@ def add_bar_probes(simulation) -> None:
     mesh = problem.mesh
     simulation.add_probe("u_contact", BoundaryAverage(mesh, simulation.u[0], ds))
     simulation.add_probe("v_contact", BoundaryAverage(mesh, simulation.v[0], ds))
-    simulation.add_probe("sigma_contact", BoundaryAverage(mesh, contact.pressure(simulation.u), ds))
+    # the mixed method's multiplier is the pressure; Nitsche's is -(1/gamma_h)[P_gamma(u)]_+
+    pressure = getattr(simulation, "lagrange_multiplier", None)
+    if pressure is None:
+        pressure = contact.pressure(simulation.u)
+    simulation.add_probe("sigma_contact", BoundaryAverage(mesh, pressure, ds))
 
 
 def impact_problem(

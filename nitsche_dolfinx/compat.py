@@ -14,6 +14,7 @@ import os
 import sys
 
 import numpy as np
+import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
@@ -31,6 +32,7 @@ __all__ = [
     "geometry_dofmap",
     "gmsh_model_to_mesh",
     "interpolation_points",
+    "mixed_function_space",
     "own_symbols",
     "petsc_vector",
     "read_gmsh_file",
@@ -71,6 +73,31 @@ def function_space(mesh, family: str, degree: int, shape: tuple[int, ...] = ()):
     if shape:
         return fem.VectorFunctionSpace(mesh, (family, degree), dim=shape[0])
     return fem.FunctionSpace(mesh, (family, degree))
+
+
+def mixed_function_space(mesh, parts: list[tuple[str, int, tuple[int, ...]]]):
+    """A mixed function space of Lagrange-type parts ``[(family, degree, shape), ...]``.
+
+    ``basix.ufl.mixed_element`` and ``fem.functionspace`` from dolfinx 0.7;
+    ``ufl.MixedElement`` of ``ufl.VectorElement``/``ufl.FiniteElement`` before.
+    """
+    try:
+        import basix.ufl
+    except ImportError:  # UFL 2022: the elements are UFL's own
+        cell = mesh.ufl_cell()
+        elements = [
+            ufl.VectorElement(family, cell, degree, dim=shape[0])
+            if shape
+            else ufl.FiniteElement(family, cell, degree)
+            for family, degree, shape in parts
+        ]
+        return fem.FunctionSpace(mesh, ufl.MixedElement(elements))
+    cell = mesh.basix_cell() if hasattr(mesh, "basix_cell") else cell_name(mesh)
+    elements = [
+        basix.ufl.element(family, cell, degree, shape=tuple(shape))
+        for family, degree, shape in parts
+    ]
+    return fem.functionspace(mesh, basix.ufl.mixed_element(elements))
 
 
 def dofmap_array(V) -> np.ndarray:

@@ -33,9 +33,9 @@ from mpi4py import MPI
 from . import compat
 from .contact import NitscheContact, PenaltyContact
 from .diagnostics import Diagnostics
+from .mass import lumped_mass, redistributed_mass
 from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
-from .mass import lumped_mass, redistributed_mass
 from .output import HistoryWriter, SolutionWriter, ensure_directory
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
@@ -252,20 +252,25 @@ class ContactProblem:
         rho = self.material.rho if self.mass == "consistent" else 0.0
         return rho * ufl.inner(acceleration, v) * self.dx
 
-    def mass_diagonal(self):
+    def mass_diagonal(self, V=None):
         """The lumped or redistributed mass matrix as a PETSc vector (its diagonal), or None
-        for the consistent mass."""
+        for the consistent mass; on ``V`` (another numbering of the displacement space)
+        when given."""
         if self.mass == "consistent":
             return None
+        if V is not None:
+            return self._diagonal_mass(V)
         if self._mass_diagonal is None:
-            if self.mass == "lumped":
-                self._mass_diagonal = lumped_mass(self.V, self.material.rho)
-            else:
-                if not self.contact_tags:
-                    raise ValueError("mass='redistributed' needs an obstacle: add one first")
-                facets = np.concatenate([self.facets(tag) for tag in self.contact_tags])
-                self._mass_diagonal = redistributed_mass(self.V, self.material.rho, facets)
+            self._mass_diagonal = self._diagonal_mass(self.V)
         return self._mass_diagonal
+
+    def _diagonal_mass(self, V):
+        if self.mass == "lumped":
+            return lumped_mass(V, self.material.rho)
+        if not self.contact_tags:
+            raise ValueError("mass='redistributed' needs an obstacle: add one first")
+        facets = np.concatenate([self.facets(tag) for tag in self.contact_tags])
+        return redistributed_mass(V, self.material.rho, facets)
 
     def operator(self, u, v):
         """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact term at one time level."""

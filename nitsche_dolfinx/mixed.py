@@ -1,0 +1,253 @@
+"""The mixed method, for comparison: a Lagrange multiplier for the contact pressure.
+
+The multiplier ``lambda`` (= sigma_n on Gamma_C, <= 0) lives in a P1 field on the
+whole mesh whose dofs off Gamma_C are fixed to zero, which builds on every
+supported dolfinx version. The contact conditions are written with the
+Alart-Curnier complementarity function
+
+    lambda + (1/r) [u_n - g - r lambda]_+ = 0      on Gamma_C   (r = h_T / E),
+
+and the whole system, time-discretised by Crank-Nicolson (equation at t^{n+1},
+u^{n+1} = u^n + tau v^n + tau^2/4 (a^n + a^{n+1})), is solved by the same SNES
+semismooth Newton:
+
+    <rho a^{n+1}, v> + a(u^{n+1}, v) - int_Gamma_C lambda^{n+1} v_n = L^{n+1}(v).
+
+This is the "Mixed + CN" method of the talk, known to be ill-posed at the
+semi-discrete level with the consistent mass (Khenous, Laborde & Renard 2008);
+with ``mass="redistributed"`` it is the modified mass method.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from . import compat
+from .contact import positive_part
+from .diagnostics import assemble_global
+from .problem import ContactProblem
+from .schemes import CrankNicolson
+from .solver import SNESSolver
+
+__all__ = ["MixedSimulation"]
+
+
+class MixedSimulation:
+    """Crank-Nicolson for elastodynamics with contact by a Lagrange multiplier.
+
+    Takes a :class:`~nitsche_dolfinx.problem.ContactProblem` with one obstacle (its
+    contact method is ignored: the multiplier replaces it) and offers the same
+    ``run``, ``add_probe`` and history columns as
+    :class:`~nitsche_dolfinx.problem.Simulation`. ``lagrange_multiplier`` is the
+    UFL expression of lambda (the contact pressure) for probes.
+    """
+
+    def __init__(self, problem: ContactProblem, dt: float, t_end: float, petsc_options=None):
+        if len(problem.contacts) != 1:
+            raise ValueError("the mixed method takes exactly one obstacle")
+        if problem.dirichlet and any(value._function is not None for _, value in problem.dirichlet):
+            raise ValueError("the mixed method supports constant Dirichlet values only")
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"the time step must be positive, got dt={dt!r}")
+        if not (np.isfinite(t_end) and t_end >= dt):
+            raise ValueError(f"the final time must be at least one time step, got t_end={t_end!r}")
+        self.problem, self.dt, self.t_end = problem, float(dt), float(t_end)
+        self.num_steps = int(round(self.t_end / self.dt))
+        self.scheme = CrankNicolson()
+        self.comm = problem.mesh.comm
+        mesh, gdim = problem.mesh, problem.gdim
+        contact, tag = problem.contacts[0], problem.contact_tags[0]
+        fdim = mesh.topology.dim - 1
+
+        W = compat.mixed_function_space(
+            mesh, [("Lagrange", problem.degree, (gdim,)), ("Lagrange", 1, ())]
+        )
+        self.W = W
+        V, self._u_dofs = W.sub(0).collapse()
+        Q, self._lambda_dofs = W.sub(1).collapse()
+        self._u_dofs, self._lambda_dofs = np.asarray(self._u_dofs), np.asarray(self._lambda_dofs)
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.x = fem.Function(W)  # the unknown (a^{n+1}, lambda^{n+1})
+        w, lam = ufl.split(self.x)
+        test_v, test_mu = ufl.TestFunctions(W)
+        self.lagrange_multiplier = lam
+
+        # Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C
+        bcs = []
+        for bc_tag, value in problem.dirichlet:
+            dofs = fem.locate_dofs_topological((W.sub(0), V), fdim, problem.facets(bc_tag))
+            bcs.append(fem.dirichletbc(fem.Function(V), dofs, W.sub(0)))
+            if np.any(value.value_at(0.0)):
+                raise ValueError("the mixed method supports homogeneous Dirichlet values only")
+        mesh.topology.create_connectivity(0, mesh.topology.dim)
+        num_vertices = mesh.topology.index_map(0).size_local + mesh.topology.index_map(0).num_ghosts
+        every = fem.locate_dofs_topological(
+            (W.sub(1), Q), 0, np.arange(num_vertices, dtype=np.int32)
+        )
+        on_contact = fem.locate_dofs_topological((W.sub(1), Q), fdim, problem.facets(tag))
+        off = ~np.isin(every[0], on_contact[0])
+        bcs.append(fem.dirichletbc(fem.Function(Q), [every[0][off], every[1][off]], W.sub(1)))
+
+        dt_c = fem.Constant(mesh, self.dt)
+        u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, dt_c)
+        # the Alart-Curnier parameter does not change the solution; h/E keeps the rows scaled
+        r = problem.h / problem.material.E
+        complementarity = (
+            lam + positive_part(contact.normal_displacement(u1) - contact.gap - r * lam) / r
+        )
+        F = (
+            problem.inertia(w, test_v)  # zero for a diagonal mass, added below
+            + problem.bulk_stiffness(u1, test_v)
+            - lam * contact.normal_displacement(test_v) * contact.ds
+            - problem.load(test_v)
+            + complementarity * test_mu * contact.ds
+        )
+        diagonal = self._mass_diagonal_on_W()
+        self.solver = SNESSolver(
+            F, self.x, bcs, petsc_options=petsc_options, mass_diagonal=diagonal
+        )
+        # energies: E = kinetic + elastic - L(u), no Nitsche correction
+        self._energy_forms = [
+            fem.form(0.5 * problem.material.rho * ufl.inner(self.v, self.v) * problem.dx)
+            if diagonal is None
+            else None,
+            fem.form(0.5 * problem.bulk_stiffness(self.u, self.u)),
+            fem.form(-problem.load(self.u)),
+            fem.form(-lam * contact.ds),
+        ]
+        self.t, self.step_index, self.newton_iterations = 0.0, 0, 0
+        self._probes = {}
+        self._initialize()
+
+    def _mass_diagonal_on_W(self):
+        """The problem's diagonal mass (lumped, redistributed) on the displacement dofs of W."""
+        diagonal = self.problem.mass_diagonal(self.u.function_space)
+        if diagonal is None:
+            return None
+        self._mass_V = diagonal
+        on_W = compat.create_vector(self.W)
+        with on_W.localForm() as target, diagonal.localForm() as source:
+            target.set(0.0)
+            target.array[self._u_dofs] = source.array
+        return on_W
+
+    def _kinetic(self) -> float:
+        """1/2 v . M v with the diagonal mass."""
+        velocity = compat.petsc_vector(self.v)
+        product = velocity.duplicate()
+        product.pointwiseMult(self._mass_V, velocity)
+        value = 0.5 * product.dot(velocity)
+        product.destroy()
+        return value
+
+    def _initialize(self) -> None:
+        problem = self.problem
+        gdim = problem.gdim
+        for target, value in (
+            (self.u, problem.initial_displacement),
+            (self.v, problem.initial_velocity),
+        ):
+            if value is None:
+                target.x.array[:] = 0.0
+            elif callable(value):
+                target.interpolate(
+                    lambda x, f=value: np.asarray(f(x), dtype=float).reshape(gdim, -1)
+                )
+            else:
+                target.x.array.reshape(-1, gdim)[:] = np.asarray(value, dtype=float)
+        # consistent initial acceleration with the initial multiplier: start from rest in
+        # the bulk (M a0 = L(0) - K u0) with the contact inactive (the body starts apart)
+        test = ufl.TestFunction(self.u.function_space)
+        F0 = (
+            problem.inertia(self.a, test)
+            + problem.bulk_stiffness(self.u, test)
+            - problem.load(test)
+        )
+        V = self.u.function_space
+        fdim = problem.mesh.topology.dim - 1
+        bcs = [
+            fem.dirichletbc(
+                fem.Function(V), fem.locate_dofs_topological(V, fdim, problem.facets(tag))
+            )
+            for tag, _ in problem.dirichlet
+        ]
+        diagonal = self._mass_V if self.solver._D is not None else None
+        if diagonal is not None:  # massless nodes have no acceleration of their own
+            with diagonal.localForm() as local:
+                massless = np.flatnonzero(local.array.reshape(-1, problem.gdim)[:, 0] == 0.0)
+            bcs.append(fem.dirichletbc(fem.Function(V), massless.astype(np.int32)))
+        solver = SNESSolver(F0, self.a, bcs, mass_diagonal=diagonal)
+        solver.solve()
+        solver.destroy()
+
+    def add_probe(self, name: str, probe) -> None:
+        """Add a history column computed by ``probe()`` at every time level."""
+        self._probes[name] = probe
+
+    def state(self) -> dict:
+        """t, the energies (E = E_Theta here), the contact force and the probes."""
+        kinetic, elastic, potential, force = (
+            self._kinetic() if form is None else assemble_global(form, self.comm)
+            for form in self._energy_forms
+        )
+        energy = kinetic + elastic + potential
+        values = {
+            "t": self.t,
+            "energy": energy,
+            "energy_theta": energy,
+            "kinetic": kinetic,
+            "elastic": elastic,
+            "potential": potential,
+            "contact_force": force,
+            "newton_iterations": self.newton_iterations,
+        }
+        values.update({name: probe() for name, probe in self._probes.items()})
+        return values
+
+    def step(self) -> int:
+        """One Crank-Nicolson step; returns the Newton iterations."""
+        t_new = (self.step_index + 1) * self.dt
+        self.problem.set_time(t_new)
+        self.x.x.array[self._u_dofs] = self.a.x.array  # guess: the last acceleration
+        iterations = self.solver.solve()
+        w = self.x.x.array[self._u_dofs]
+        u1, v1, a1 = self.scheme.kinematics(
+            self.u.x.array, self.v.x.array, self.a.x.array, w, self.dt
+        )
+        self.u.x.array[:], self.v.x.array[:], self.a.x.array[:] = u1, v1, a1
+        self.t, self.step_index, self.newton_iterations = t_new, self.step_index + 1, iterations
+        return iterations
+
+    def run(self, out=None, columns=None, callback=None) -> list[dict]:
+        """Run to t_end; write ``out/history.csv`` with ``columns`` when ``out`` is given."""
+        from .output import HistoryWriter, ensure_directory
+
+        history = None
+        if out is not None:
+            import os
+
+            ensure_directory(out, self.comm)
+            history = HistoryWriter(os.path.join(out, "history.csv"), columns, self.comm)
+        records = [self.state()]
+        try:
+            if history:
+                history.write(records[-1])
+            while self.step_index < self.num_steps:
+                start = time.perf_counter()
+                self.step()
+                records.append(self.state())
+                records[-1]["step_seconds"] = time.perf_counter() - start
+                if history:
+                    history.write(records[-1])
+                if callback is not None:
+                    callback(self)
+        finally:
+            if history:
+                history.close()
+        return records
