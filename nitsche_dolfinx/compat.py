@@ -22,6 +22,7 @@ from petsc4py import PETSc
 __all__ = [
     "apply_lifting",
     "cell_name",
+    "collapse",
     "create_matrix",
     "create_vector",
     "expression",
@@ -98,6 +99,15 @@ def mixed_function_space(mesh, parts: list[tuple[str, int, tuple[int, ...]]]):
         for family, degree, shape in parts
     ]
     return fem.functionspace(mesh, basix.ufl.mixed_element(elements))
+
+
+def collapse(subspace):
+    """``(collapsed space, the parent's index of each of its dofs)`` of a subspace.
+
+    The map is an array up to 0.10 and a list holding that array in 0.11.
+    """
+    collapsed, dofs = subspace.collapse()
+    return collapsed, np.asarray(dofs).reshape(-1)
 
 
 def dofmap_array(V) -> np.ndarray:

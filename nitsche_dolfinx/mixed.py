@@ -36,6 +36,31 @@ from .solver import SNESSolver
 __all__ = ["MixedSimulation"]
 
 
+def _node_keys(V) -> np.ndarray:
+    """(coordinates..., component) of every local dof of V, for matching two numberings."""
+    field = fem.Function(V)
+    components = field.ufl_shape[0] if field.ufl_shape else 0
+    keys = []
+    for d in range(V.mesh.geometry.dim):
+        field.interpolate(lambda x, d=d: np.tile(x[d], (components, 1)) if components else x[d])
+        keys.append(field.x.array.copy())
+    bs = V.dofmap.index_map_bs
+    keys.append(np.tile(np.arange(bs), field.x.array.size // bs))
+    return np.round(np.array(keys), 12)
+
+
+def _matching_dofs(target, source) -> np.ndarray:
+    """The permutation p with target dof i = source dof p[i] (same nodes, two numberings)."""
+    keys_t, keys_s = _node_keys(target), _node_keys(source)
+    order_t = np.lexsort(keys_t[::-1])
+    order_s = np.lexsort(keys_s[::-1])
+    if keys_t.shape != keys_s.shape or not np.array_equal(keys_t[:, order_t], keys_s[:, order_s]):
+        raise RuntimeError("the displacement part of the mixed space does not match V")
+    permutation = np.empty_like(order_t)
+    permutation[order_t] = order_s
+    return permutation
+
+
 class MixedSimulation:
     """Crank-Nicolson for elastodynamics with contact by a Lagrange multiplier.
 
@@ -67,9 +92,12 @@ class MixedSimulation:
             mesh, [("Lagrange", problem.degree, (gdim,)), ("Lagrange", 1, ())]
         )
         self.W = W
-        V, self._u_dofs = W.sub(0).collapse()
-        Q, self._lambda_dofs = W.sub(1).collapse()
-        self._u_dofs, self._lambda_dofs = np.asarray(self._u_dofs), np.asarray(self._lambda_dofs)
+        V0, u_dofs = compat.collapse(W.sub(0))
+        Q, _ = compat.collapse(W.sub(1))
+        # u, v and a live on the problem's space (the collapsed one may differ in its
+        # numbering, and is scalar for a 1D vector part from dolfinx 0.7): match the dofs
+        V = problem.V
+        self._w_index = u_dofs[_matching_dofs(V, V0)]
         self.u = fem.Function(V, name="displacement")
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
@@ -81,8 +109,8 @@ class MixedSimulation:
         # Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C
         bcs = []
         for bc_tag, value in problem.dirichlet:
-            dofs = fem.locate_dofs_topological((W.sub(0), V), fdim, problem.facets(bc_tag))
-            bcs.append(fem.dirichletbc(fem.Function(V), dofs, W.sub(0)))
+            dofs = fem.locate_dofs_topological((W.sub(0), V0), fdim, problem.facets(bc_tag))
+            bcs.append(fem.dirichletbc(fem.Function(V0), dofs, W.sub(0)))
             if np.any(value.value_at(0.0)):
                 raise ValueError("the mixed method supports homogeneous Dirichlet values only")
         mesh.topology.create_connectivity(0, mesh.topology.dim)
@@ -127,14 +155,14 @@ class MixedSimulation:
 
     def _mass_diagonal_on_W(self):
         """The problem's diagonal mass (lumped, redistributed) on the displacement dofs of W."""
-        diagonal = self.problem.mass_diagonal(self.u.function_space)
+        diagonal = self.problem.mass_diagonal()
         if diagonal is None:
             return None
         self._mass_V = diagonal
         on_W = compat.create_vector(self.W)
         with on_W.localForm() as target, diagonal.localForm() as source:
             target.set(0.0)
-            target.array[self._u_dofs] = source.array
+            target.array[self._w_index] = source.array
         return on_W
 
     def _kinetic(self) -> float:
@@ -214,9 +242,9 @@ class MixedSimulation:
         """One Crank-Nicolson step; returns the Newton iterations."""
         t_new = (self.step_index + 1) * self.dt
         self.problem.set_time(t_new)
-        self.x.x.array[self._u_dofs] = self.a.x.array  # guess: the last acceleration
+        self.x.x.array[self._w_index] = self.a.x.array  # guess: the last acceleration
         iterations = self.solver.solve()
-        w = self.x.x.array[self._u_dofs]
+        w = self.x.x.array[self._w_index]
         u1, v1, a1 = self.scheme.kinematics(
             self.u.x.array, self.v.x.array, self.a.x.array, w, self.dt
         )

@@ -184,3 +184,19 @@ def test_xdmf_meshtags_roundtrip(mpi_tmp_path):
         msh2.topology.create_connectivity(1, 2)
         tags2 = compat.read_meshtags(xdmf, msh2, "facets")
     assert comm.allreduce(np.count_nonzero(tags2.values == 5), op=MPI.SUM) >= 3
+
+
+def test_mixed_function_space_and_collapse(square):
+    W = compat.mixed_function_space(square, [("Lagrange", 2, (2,)), ("Lagrange", 1, ())])
+    V, dofs = compat.collapse(W.sub(0))
+    Q, multiplier_dofs = compat.collapse(W.sub(1))
+    assert dofs.ndim == 1 and multiplier_dofs.ndim == 1
+    local = lambda S: (
+        (S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts)
+        * (  # noqa: E731
+            S.dofmap.index_map_bs
+        )
+    )
+    assert len(dofs) == local(V) and len(multiplier_dofs) == local(Q)
+    assert len(np.intersect1d(dofs, multiplier_dofs)) == 0
+    assert len(dofs) + len(multiplier_dofs) == local(W)

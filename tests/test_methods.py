@@ -1,0 +1,82 @@
+"""The comparison methods: penalty contact, lumped and redistributed mass, the mixed method."""
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation
+from nitsche_dolfinx.cases import BAR_COLUMNS, bar_problem, bar_simulation
+
+
+def history(simulation):
+    records = simulation.run()
+    return {name: np.array([r[name] for r in records]) for name in records[0]}
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("mass", ["lumped", "redistributed"])
+def test_diagonal_masses_keep_the_total_mass(mass):
+    problem = bar_problem(nx=20, mass=mass)
+    diagonal = problem.mass_diagonal()
+    assert diagonal.sum() == pytest.approx(1.0, rel=1e-14)  # rho |Omega|
+    assert diagonal.min()[1] >= 0.0  # (index, value)
+    if mass == "redistributed":
+        # the contact node x = 0 is massless, its mass h/2 went to its neighbour
+        from dolfinx import fem
+
+        coordinates = fem.Function(problem.V)
+        coordinates.interpolate(lambda x: x[:1])
+        values = coordinates.x.array
+        owned = problem.V.dofmap.index_map.size_local
+        local = diagonal.array_r
+        at = {round(x, 12): m for x, m in zip(values[:owned], local)}
+        if 0.0 in at:
+            assert at[0.0] == 0.0
+        if 0.05 in at:
+            assert at[0.05] == pytest.approx(0.05 + 0.025)
+
+
+def test_redistributed_mass_rejects_the_hybrid_scheme():
+    with pytest.raises(ValueError, match="redistributed.*hybrid"):
+        Simulation(bar_problem(nx=10, mass="redistributed"), HybridScheme(), dt=0.1, t_end=1.0)
+
+
+def test_unknown_method_and_mass_are_named():
+    with pytest.raises(ValueError, match="'lagrange'"):
+        bar_problem(nx=10, method="lagrange")
+    with pytest.raises(ValueError, match="'heavy'"):
+        bar_problem(nx=10, mass="heavy")
+
+
+@pytest.mark.parametrize("mass", ["consistent", "lumped"])
+def test_free_flight_energy_with_each_mass(mass):
+    """CN conserves 1/2 v.Mv + 1/2 A(u, u) whatever the (constant) mass matrix."""
+    h = history(bar_simulation(CrankNicolson(), mass=mass, t_end=0.99, nitsche_theta=0.0))
+    assert np.abs(h["energy"] - h["energy"][0]).max() < 1e-10 * h["energy"][0]
+
+
+def test_penalty_conserves_energy_plus_penalty_energy_with_cn_before_impact():
+    h = history(bar_simulation(CrankNicolson(), method="penalty", t_end=0.99))
+    assert np.abs(h["energy_theta"] - h["energy_theta"][0]).max() < 1e-10 * h["energy"][0]
+
+
+def test_mixed_method_rejects_other_schemes():
+    with pytest.raises(ValueError, match="Crank-Nicolson only"):
+        bar_simulation(HybridScheme(), method="mixed")
+
+
+def test_mixed_multiplier_is_a_pressure():
+    """lambda <= 0 always, zero in flight, and u(t, 0) >= 0: the constraint holds exactly."""
+    h = history(bar_simulation(CrankNicolson(), method="mixed", t_end=3.0))
+    assert h["sigma_contact"].max() <= 1e-12
+    assert h["u_contact"].min() >= -1e-12
+    s = np.mod(h["t"], 3.0)
+    assert np.all(h["sigma_contact"][s < 0.95] == 0.0)
+
+
+@pytest.mark.mpi
+def test_mixed_parallel_matches_serial():
+    parallel = history(bar_simulation(CrankNicolson(), method="mixed", t_end=1.5))
+    serial = history(bar_simulation(CrankNicolson(), method="mixed", t_end=1.5, comm=MPI.COMM_SELF))
+    for column in BAR_COLUMNS:
+        assert np.allclose(parallel[column], serial[column], rtol=1e-10, atol=1e-12), column
