@@ -19,6 +19,8 @@ setup:
 # The main job: the paper's experiments that exist so far.
 demo: setup
 	$(PY) demos/bar_1d.py --out out/bar_1d
+	$(PY) demos/compare_methods_1d.py --out out/compare_methods_1d
+	$(PY) demos/convergence_1d.py --out out/convergence_1d
 	mpirun -n $(NP) $(PY) demos/ring_2d.py --quiet --out out/ring_2d
 	mpirun -n $(NP) $(PY) demos/disk_2d.py --quiet --out out/disk_2d
 	mpirun -n $(NP) $(PY) demos/ball_3d.py --quiet --out out/ball_3d

@@ -2,7 +2,7 @@
 # Build (once) and use a Debian chroot with a given suite's dolfinx.
 #
 #   .ci/chroot.sh build SUITE        create or reuse $CACHE/SUITE
-#   .ci/chroot.sh run SUITE CMD...   run CMD inside it, with the repository at /repo
+#   .ci/chroot.sh run SUITE CMD...   run CMD inside it, in the repository (bound at /work-PID)
 #
 # The chroots live in a cache folder outside the repository
 # (NITSCHE_CI_CACHE, default /var/cache/nitsche-dolfinx-ci) and are reused
@@ -21,20 +21,20 @@ mirror() {
   echo "${uri:-http://deb.debian.org/debian}"
 }
 
-mount_all() {
+# The system mounts stay while the chroot is in use by any run (several runs may share
+# it); each run binds the repository at a mount point of its own, /work-PID.
+mount_system() {
   local dir=$1
   for fs in proc sys dev dev/pts; do
     mkdir -p "$dir/$fs"
     mountpoint -q "$dir/$fs" || mount --bind "/$fs" "$dir/$fs"
   done
-  mkdir -p "$dir/repo"
-  mountpoint -q "$dir/repo" || mount --bind "$REPO" "$dir/repo"
 }
 
-umount_all() {
-  local dir=$1
-  for fs in repo dev/pts dev sys proc; do
-    mountpoint -q "$dir/$fs" && umount -l "$dir/$fs" || true
+umount_all() {  # every mount below the chroot: before deleting or updating it
+  local dir=$1 point
+  for point in $(grep -o " $dir/[^ ]*" /proc/mounts | sort -r); do
+    umount -l "$point" || true
   done
 }
 
@@ -43,23 +43,22 @@ build() {
   if [ -f "$dir/.ready" ]; then
     # a cached chroot gets the packages added to the list since it was built
     [ "$(cat "$dir/.ready")" = "$(echo $PACKAGES)" ] && return 0
-    mount_all "$dir"
+    mount_system "$dir"
     chroot "$dir" /bin/bash -c "DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
       --no-install-recommends $(echo $PACKAGES) openmpi-bin" >> "$CACHE/$suite.log" 2>&1
     local status=$?
-    umount_all "$dir"
     [ $status -eq 0 ] && echo $PACKAGES > "$dir/.ready"
     return $status
   fi
   command -v debootstrap >/dev/null || { apt-get update -qq; apt-get install -y -qq debootstrap; }
-  rm -rf "$dir"; mkdir -p "$CACHE"
+  umount_all "$dir"  # never delete through a bind mount of /dev or /sys
+  rm -rf --one-file-system "$dir"; mkdir -p "$CACHE"
   local keyring=()
   [ "$suite" = sid ] && keyring=(--no-check-gpg)
   debootstrap --variant=minbase "${keyring[@]}" "$suite" "$dir" "$(mirror)" > "$CACHE/$suite.log" 2>&1 \
     || { tail -n 20 "$CACHE/$suite.log"; return 1; }
   cp /etc/resolv.conf "$dir/etc/resolv.conf" 2>/dev/null || true
-  mount_all "$dir"
-  trap "umount_all '$dir'" RETURN
+  mount_system "$dir"
   chroot "$dir" /bin/bash -c "
     export DEBIAN_FRONTEND=noninteractive
     apt-get -o Acquire::Check-Valid-Until=false update -qq &&
@@ -70,13 +69,15 @@ build() {
 
 run() {
   local suite=$1; shift
-  local dir=$CACHE/$suite
-  mount_all "$dir"
-  trap "umount_all '$dir'" RETURN
+  local dir=$CACHE/$suite work=/work-$$
+  mount_system "$dir"
+  mkdir -p "$dir$work"
+  mount --bind "$REPO" "$dir$work"
+  trap "umount -l '$dir$work'; rmdir '$dir$work'" RETURN
   chroot "$dir" /usr/bin/env -i PATH=/usr/local/bin:/usr/bin:/bin HOME=/root LANG=C.UTF-8 \
     OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
     OPENBLAS_NUM_THREADS=1 \
-    PYTHONPATH=/repo CI="${CI:-}" MPLBACKEND=Agg /bin/bash -c "cd /repo && $*"
+    PYTHONPATH=$work CI="${CI:-}" MPLBACKEND=Agg /bin/bash -c "cd $work && $*"
 }
 
 cmd=${1:?usage: chroot.sh build|run SUITE [CMD...]}; shift

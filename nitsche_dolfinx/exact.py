@@ -8,8 +8,21 @@ u0(x) = 1/2 - x/2, v0 = 0. Periodic with period 3 and energy 1/8.
 from __future__ import annotations
 
 import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
 
-__all__ = ["BAR_ENERGY", "BAR_PERIOD", "bar_contact_values", "bar_displacement"]
+from . import compat
+
+__all__ = [
+    "BAR_ENERGY",
+    "BAR_PERIOD",
+    "BarSpaceTimeErrors",
+    "bar_contact_values",
+    "bar_displacement",
+    "bar_kinks",
+    "bar_strain",
+]
 
 BAR_PERIOD = 3.0
 BAR_ENERGY = 1.0 / 8.0
@@ -38,3 +51,77 @@ def bar_contact_values(t):
     v = np.where(s < 1.0, -0.5, np.where(s < 2.0, 0.0, 0.5))
     sigma = np.where((s > 1.0) & (s < 2.0), -0.5, 0.0)
     return u, v, sigma
+
+
+def bar_strain(t, x):
+    """du/dx (t, x) of the exact solution (at a kink: either side)."""
+    t, x = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(x, dtype=float))
+    s = np.mod(t, BAR_PERIOD)
+    flight = np.where(x > s, -0.5, 0.0)
+    r = s - 1.0
+    low, high = np.minimum(r, 1.0 - r), np.maximum(r, 1.0 - r)
+    contact = np.where(x < low, -0.5, np.where(x > high, 0.5, 0.0))
+    release = np.where(x > 3.0 - s, -0.5, 0.0)
+    return np.where(s <= 1.0, flight, np.where(s <= 2.0, contact, release))
+
+
+def bar_kinks(t: float) -> np.ndarray:
+    """Every x where u(t, .) may have a kink (extra points do no harm)."""
+    s = t % BAR_PERIOD
+    return np.array([s, s - 1.0, 2.0 - s, 3.0 - s])
+
+
+GAUSS_POINTS, GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(4)  # exact up to degree 7
+
+
+class BarSpaceTimeErrors:
+    """sum_n tau ||e^n||^2_L2 and sum_n tau |e^n|^2_H1 of a bar simulation (H1 seminorm).
+
+    Call it at t = 0 and after every step (``run(callback=errors)``). Each cell is cut
+    at the kinks of the exact solution and integrated exactly by Gauss quadrature on
+    each piece; u_h is evaluated with ``Function.eval`` and du_h/dx interpolated into
+    DG(p - 1), on the cells this rank owns, summed over the ranks.
+    """
+
+    def __init__(self, simulation):
+        u = simulation.u
+        mesh = u.function_space.mesh
+        tdim = mesh.topology.dim
+        num_owned = mesh.topology.index_map(tdim).size_local
+        self.cells = np.arange(num_owned, dtype=np.int32)
+        x = mesh.geometry.x[compat.geometry_dofmap(mesh)[:num_owned], 0]
+        self.left, self.right = x.min(axis=1), x.max(axis=1)
+        degree = simulation.problem.degree
+        self.gradient = fem.Function(compat.function_space(mesh, "DG", degree - 1))
+        self._gradient_expression = compat.expression(
+            ufl.grad(u)[0, 0], self.gradient.function_space
+        )
+        self.comm = mesh.comm
+        self.l2_squared = 0.0
+        self.h1_squared = 0.0
+
+    def __call__(self, simulation) -> None:
+        t, dt = simulation.t, simulation.dt
+        # each cell cut at the kinks: pieces [a, b] on which u(t, .) is linear
+        cuts = np.clip(bar_kinks(t)[None, :], self.left[:, None], self.right[:, None])
+        ends = np.sort(np.column_stack([self.left, cuts, self.right]), axis=1)
+        a, b = ends[:, :-1, None], ends[:, 1:, None]
+        x = 0.5 * (a + b) + 0.5 * (b - a) * GAUSS_POINTS
+        weights = 0.5 * (b - a) * GAUSS_WEIGHTS
+        points = np.zeros((x.size, 3))
+        points[:, 0] = x.ravel()
+        cells = np.repeat(self.cells, x.size // max(len(self.cells), 1))
+        self.gradient.interpolate(self._gradient_expression)
+        u_h = simulation.u.eval(points, cells)[:, 0].reshape(x.shape)
+        du_h = self.gradient.eval(points, cells)[:, 0].reshape(x.shape)
+        # the exact gradient at the middle of each piece: no doubt about the side of a kink
+        du = np.broadcast_to(bar_strain(t, 0.5 * (a + b)), x.shape)
+        local = np.array(
+            [
+                np.sum(weights * (u_h - bar_displacement(t, x)) ** 2),
+                np.sum(weights * (du_h - du) ** 2),
+            ]
+        )
+        total = self.comm.allreduce(local, op=MPI.SUM)
+        self.l2_squared += dt * total[0]
+        self.h1_squared += dt * total[1]

@@ -29,7 +29,7 @@ from dolfinx import fem
 from . import compat
 from .contact import positive_part
 from .diagnostics import assemble_global
-from .problem import ContactProblem
+from .problem import ContactProblem, _massless_velocity
 from .schemes import CrankNicolson
 from .solver import SNESSolver
 
@@ -149,6 +149,7 @@ class MixedSimulation:
             fem.form(-problem.load(self.u)),
             fem.form(-lam * contact.ds),
         ]
+        self._massless = problem.massless_dofs()
         self.t, self.step_index, self.newton_iterations = 0.0, 0, 0
         self._probes = {}
         self._initialize()
@@ -248,6 +249,7 @@ class MixedSimulation:
         u1, v1, a1 = self.scheme.kinematics(
             self.u.x.array, self.v.x.array, self.a.x.array, w, self.dt
         )
+        _massless_velocity(self._massless, self.u.x.array, u1, v1, a1, self.dt)
         self.u.x.array[:], self.v.x.array[:], self.a.x.array[:] = u1, v1, a1
         self.t, self.step_index, self.newton_iterations = t_new, self.step_index + 1, iterations
         return iterations

@@ -63,6 +63,14 @@ HISTORY_COLUMNS = (
 )
 
 
+def _massless_velocity(massless, u, u1, v1, a1, dt) -> None:
+    """At massless dofs (redistributed mass) the scheme's velocity update means nothing:
+    the node follows its constraint. Report the step's mean velocity there instead."""
+    if massless.size:
+        v1[massless] = (u1[massless] - u[massless]) / dt
+        a1[massless] = 0.0
+
+
 class _TimeDependentValue:
     """A constant or a function of t, held in a ``fem.Constant`` that follows the time."""
 
@@ -264,6 +272,14 @@ class ContactProblem:
             self._mass_diagonal = self._diagonal_mass(self.V)
         return self._mass_diagonal
 
+    def massless_dofs(self) -> np.ndarray:
+        """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass)."""
+        diagonal = self.mass_diagonal()
+        if diagonal is None:
+            return np.zeros(0, dtype=np.int32)
+        with diagonal.localForm() as local:
+            return np.flatnonzero(local.array == 0.0).astype(np.int32)
+
     def _diagonal_mass(self, V):
         if self.mass == "lumped":
             return lumped_mass(V, self.material.rho)
@@ -386,6 +402,7 @@ class Simulation:
             preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
         )
         self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self._massless = problem.massless_dofs()
         self._petsc_options = petsc_options
         self._initialize()
 
@@ -473,6 +490,7 @@ class Simulation:
         u1, v1, a1 = scheme.kinematics(
             self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt
         )
+        _massless_velocity(self._massless, self.u.x.array, u1, v1, a1, dt)
         self.u.x.array[:] = u1
         self.v.x.array[:] = v1
         self.a.x.array[:] = a1

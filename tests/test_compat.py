@@ -191,12 +191,11 @@ def test_mixed_function_space_and_collapse(square):
     V, dofs = compat.collapse(W.sub(0))
     Q, multiplier_dofs = compat.collapse(W.sub(1))
     assert dofs.ndim == 1 and multiplier_dofs.ndim == 1
-    local = lambda S: (
-        (S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts)
-        * (  # noqa: E731
-            S.dofmap.index_map_bs
-        )
-    )
+
+    def local(S):
+        index_map = S.dofmap.index_map
+        return (index_map.size_local + index_map.num_ghosts) * S.dofmap.index_map_bs
+
     assert len(dofs) == local(V) and len(multiplier_dofs) == local(Q)
     assert len(np.intersect1d(dofs, multiplier_dofs)) == 0
     assert len(dofs) + len(multiplier_dofs) == local(W)

@@ -1,0 +1,479 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: light
+#       format_version: '1.5'
+# ---
+
+# # Convergence on the bouncing bar when $h, \tau \to 0$ with $\tau / h$ fixed
+#
+# The talk of Chouly, Hild & Renard ("A Nitsche finite element method for
+# dynamic contact", M2AN 49, 2015) ends its 1D experiments with error curves
+# for the bar with multiple impacts of `demos/bar_1d.py`, refined in space
+# and time together ($\tau / h$ fixed): the displacement in
+# $\ell^2(\tau; L^2(\Omega))$ and $\ell^2(\tau; H^1(\Omega))$, the contact
+# pressure and the energy. This demo measures them for four methods.
+#
+# It shows how to
+#
+# - refine space and time together and run each level with
+#   `nitsche_dolfinx.cases.bar_simulation`;
+# - measure space-time errors against an exact solution with a `callback`
+#   called by `run()` after every step;
+# - add a probe of our own (the normal stress at the wall) to a simulation;
+# - report observed orders and draw log-log error curves with slope marks.
+#
+# ## The study
+#
+# Levels $N = 25, 50, 100, 200, 400$ P1 cells ($h = 1/N$) with
+# $\tau = 1.5\, h$ (`--levels`, `--ratio`), over one period of the exact
+# solution, $T = 3$ (`--t-end`): one flight, one contact phase and one
+# release. Nitsche is the symmetric variant $\Theta = 1$ with the talk's
+# $\gamma_0 = 10^{-6}$ (`--gamma0`). The methods (`--methods`):
+#
+# | name | method | time scheme | mass |
+# |---|---|---|---|
+# | `hybrid` | Nitsche | hybrid | consistent |
+# | `cn` | Nitsche | Crank-Nicolson | consistent |
+# | `mixed` | Lagrange multiplier | Crank-Nicolson | consistent |
+# | `modified_mass` | Lagrange multiplier | Crank-Nicolson | redistributed |
+#
+# The errors, with $t^n = n \tau$, $n = 0, \dots, T/\tau$, $u$ the exact
+# solution and $e^n = u_h^n - u(t^n)$:
+#
+# - $\ell^2(\tau; L^2)$: $\big(\sum_n \tau \|e^n\|^2_{L^2(0,1)}\big)^{1/2}$;
+# - $\ell^2(\tau; H^1)$: $\big(\sum_n \tau |e^n|^2_{H^1(0,1)}\big)^{1/2}$ with
+#   the $H^1$ *seminorm* $\|\partial_x e^n\|_{L^2}$ (a norm here, as $e^n$
+#   vanishes at the clamped end; it dominates the full norm, which adds the
+#   $L^2$ error, 30 times smaller);
+# - contact pressure: $\big(\sum_n \tau |\lambda_h^n - \sigma(t^n)|^2\big)^{1/2}$
+#   at $x = 0$, with the recorded pressure $\lambda_h$ (Nitsche:
+#   $-\frac{1}{\gamma_h}[P_\gamma(u_h)]_+$; mixed: the multiplier); and the same
+#   with the normal stress of the discrete displacement at the wall,
+#   $\sigma_n(u_h^n) = E\, \partial_x u_h^n(0)$, which is what Nitsche's
+#   method makes the pressure equal to;
+# - energy: $\max_n |E^{h,n} - 1/8|$.
+#
+# The space integrals are exact: the exact solution is piecewise linear in
+# $x$ with at most two kinks, among $x = s$, $s - 1$, $2 - s$ and $3 - s$
+# ($s = t \bmod 3$), so each cell is cut at those kinks and each piece is
+# integrated by a 4-point Gauss rule, exact for the polynomials there.
+#
+# ### Results
+#
+# Measured (dolfinx 0.5.2, serial, the defaults; the demo prints the same
+# table for every method, `OUT/convergence.csv` has all digits). Errors, and
+# in brackets the observed order $\log(e_{k-1}/e_k)/\log 2$ against the
+# previous level. **Nitsche hybrid**:
+#
+# | N | l2(L2) u | l2(H1) u | pressure lambda_h | sigma_n(u_h) at 0 | energy |
+# |---|---|---|---|---|---|
+# | 25 | 2.06e-2 | 2.20e-1 | 4.95e-1 | 2.00e-1 | 4.20e-3 |
+# | 50 | 1.24e-2 (0.73) | 1.79e-1 (0.30) | 5.44e-1 (-0.13) | 1.31e-1 (0.62) | 1.55e-3 (1.44) |
+# | 100 | 7.67e-3 (0.70) | 1.43e-1 (0.33) | 5.22e-1 (0.06) | 1.07e-1 (0.29) | 9.71e-4 (0.67) |
+# | 200 | 4.58e-3 (0.74) | 1.14e-1 (0.32) | 5.39e-1 (-0.05) | 7.27e-2 (0.56) | 4.52e-4 (1.10) |
+# | 400 | 2.87e-3 (0.68) | 9.14e-2 (0.32) | 5.75e-1 (-0.09) | 5.83e-2 (0.32) | 2.20e-4 (1.04) |
+#
+# **Modified mass + CN**:
+#
+# | N | l2(L2) u | l2(H1) u | pressure lambda_h | sigma_n(u_h) at 0 | energy |
+# |---|---|---|---|---|---|
+# | 25 | 3.63e-2 | 2.47e-1 | 1.52e-1 | 1.95e-1 | 7.68e-3 |
+# | 50 | 2.01e-2 (0.85) | 1.95e-1 (0.34) | 9.79e-2 (0.63) | 1.31e-1 (0.58) | 3.84e-3 (1.00) |
+# | 100 | 1.14e-2 (0.82) | 1.54e-1 (0.33) | 8.17e-2 (0.26) | 1.02e-1 (0.36) | 1.92e-3 (1.00) |
+# | 200 | 6.63e-3 (0.78) | 1.23e-1 (0.33) | 5.43e-2 (0.59) | 6.94e-2 (0.56) | 9.61e-4 (1.00) |
+# | 400 | 3.91e-3 (0.76) | 9.83e-2 (0.33) | 4.53e-2 (0.26) | 5.47e-2 (0.34) | 4.80e-4 (1.00) |
+#
+# What the numbers say:
+#
+# - **Hybrid**: every error of $u$ and the energy error decrease at every
+#   level; over the finest three levels the orders are 0.74 and 0.68 in
+#   $\ell^2(\tau; L^2)$ and 0.32 and 0.32 in $\ell^2(\tau; H^1)$ (the demo
+#   prints this check). The energy error, lost at the impact, is $O(h)$.
+# - The $H^1$ order $1/3$ is not due to contact: the exact strain and
+#   velocity jump across fronts (the initial stress $-1/2$ meets the free end
+#   $x = 0$), which P1 elements with a non-dissipative second-order scheme
+#   smear out; over the flight alone ($T = 0.9$) the hybrid run has the
+#   orders 0.99 in $\ell^2(L^2)$ and exactly 0.33 in $\ell^2(H^1)$. The
+#   contact phase lowers the $L^2$ order to about 0.7. These orders change
+#   neither with $T = 6$ (0.72, 0.67 and 0.32, 0.32 over the finest levels)
+#   nor with $\gamma_0$ from $10^{-6}$ to $10^{-1}$ (the errors of $u$ change
+#   by at most 7%, the orders stay within 0.67-0.78 and 0.30-0.34); with
+#   $\gamma_0 = 1$ the symmetric variant is unstable, as the talk's condition
+#   $(1 + \Theta)^2 \gamma_0 \le C (1 + \rho h^2 / \tau^2)$ warns (the energy
+#   error is 7 at $N = 25$ and doubles with every level). With
+#   $\tau = 0.5\,h$ the $L^2$ orders fluctuate between levels (0.88, 0.58,
+#   0.78, 0.54; mean 0.70), so that the finest step falls below 0.6.
+# - **The pressure $\lambda_h$ of Nitsche's method does not converge in
+#   $\ell^2(\tau)$ at the time levels**: during contact the contact point
+#   alternates around the wall by about $\gamma_h |\sigma_n|$, and
+#   $\lambda_h(t^n, 0)$ alternates between about 0 and $-1$ (see
+#   `demos/compare_methods_1d.py`), an $O(1)$ error at every level. The
+#   normal stress $\sigma_n(u_h)$ at the wall, which the method makes the
+#   pressure equal to, converges, with orders between 0.3 and 0.6 (mean
+#   0.45). The multiplier of the modified mass method converges the same way.
+# - **Modified mass + CN** converges like the hybrid scheme, with a slightly
+#   higher $L^2$ order (0.76 to 0.85) but larger errors, and energy errors
+#   twice as large (its first step loses $0.16\,h$, see
+#   `demos/compare_methods_1d.py`).
+# - **Nitsche + CN** and **Mixed + CN** (consistent mass) do not converge:
+#   the two agree to the third digit on the coarse levels, and the energy
+#   of both grows within one period on the fine ones (max $|E - 1/8|$ = 0.25,
+#   three times the exact energy, at $N = 400$), so the $H^1$, pressure and
+#   energy errors grow.
+#
+# The whole study takes about 20 seconds (the finest level 3 to 4 s per
+# method).
+#
+# ## Implementation
+
+# +
+import argparse
+import csv
+import os
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+
+from nitsche_dolfinx import BAR_CONTACT, BoundaryAverage, cases
+from nitsche_dolfinx.arguments import finite_float, one_line_errors
+from nitsche_dolfinx.cases import BAR_COLUMNS
+from nitsche_dolfinx.exact import BAR_ENERGY, BarSpaceTimeErrors, bar_contact_values
+from nitsche_dolfinx.schemes import make_scheme
+
+
+@dataclass(frozen=True)
+class Method:
+    """One method of the study."""
+
+    name: str
+    label: str
+    method: str  # "nitsche" or "mixed"
+    scheme: str  # "hybrid" or "cn"
+    mass: str  # "consistent" or "redistributed"
+    color: str
+    marker: str
+
+
+METHODS = {
+    m.name: m
+    for m in (
+        Method("hybrid", "Nitsche hybrid", "nitsche", "hybrid", "consistent", "tab:blue", "o"),
+        Method("cn", "Nitsche + CN", "nitsche", "cn", "consistent", "tab:red", "s"),
+        Method("mixed", "Mixed + CN", "mixed", "cn", "consistent", "tab:orange", "^"),
+        Method(
+            "modified_mass", "Modified mass + CN", "mixed", "cn", "redistributed", "tab:green", "D"
+        ),
+    )
+}
+
+# The errors, in the order of the table and the CSV, with their headers
+ERRORS = {
+    "error_l2_l2": "l2(L2) u",
+    "error_l2_h1": "l2(H1) u",
+    "error_pressure": "l2 lambda_h(.,0)",
+    "error_stress": "l2 sigma_n(u_h)(.,0)",
+    "error_energy": "max \\|E - 1/8\\|",
+}
+# -
+
+# ### The exact solution's gradient
+#
+# `nitsche_dolfinx.exact` gives $u(t, x)$; its $x$-derivative, piecewise
+# constant with the same kinks, is read off the same formulas.
+
+
+# `bar_strain` and `bar_kinks` in `nitsche_dolfinx.exact` give it.
+
+
+# ### Space-time errors, accumulated step by step
+#
+# `BarSpaceTimeErrors` is called once at $t = 0$ and then by `run()` after
+# every step with the simulation, whose `u` is the discrete displacement
+# at `t`. It evaluates $u_h$ with `Function.eval` and $\partial_x u_h$ by
+# interpolating it exactly into a DG space (degree $p - 1$), on the cells
+# this rank owns, and sums over the ranks.
+
+# (`nitsche_dolfinx.exact.BarSpaceTimeErrors`)
+
+
+# ### One level
+#
+# A level is one run of `cases.bar_simulation` with its own probe of
+# $\sigma_n(u_h)$ at $x = 0$ (the stress on the contact boundary, averaged
+# over it: on a 1D mesh, its value at the point).
+
+
+def run_level(
+    method: Method, nx: int, ratio: float, t_end: float, gamma0: float, degree: int = 1
+) -> dict:
+    """Errors of ``method`` with ``nx`` cells and tau = ratio / nx over (0, t_end)."""
+    start = time.perf_counter()
+    h = 1.0 / nx
+    dt = ratio * h
+    simulation = cases.bar_simulation(
+        make_scheme(method.scheme),
+        method=method.method,
+        mass=method.mass,
+        dt=dt,
+        t_end=t_end,
+        nx=nx,
+        degree=degree,
+        gamma0=gamma0,
+        nitsche_theta=1.0,
+    )
+    problem = simulation.problem
+    stress = problem.contacts[0].sigma_n(simulation.u)
+    simulation.add_probe(
+        "stress_contact", BoundaryAverage(problem.mesh, stress, problem.ds(BAR_CONTACT))
+    )
+    errors = BarSpaceTimeErrors(simulation)
+    errors(simulation)  # t = 0
+    records = simulation.run(callback=errors)
+    history = {
+        name: np.array([r[name] for r in records]) for name in (*BAR_COLUMNS, "stress_contact")
+    }
+    _, _, sigma = bar_contact_values(history["t"])
+    return {
+        "method": method.name,
+        "N": nx,
+        "h": h,
+        "tau": dt,
+        "error_l2_l2": np.sqrt(errors.l2_squared),
+        "error_l2_h1": np.sqrt(errors.h1_squared),
+        "error_pressure": np.sqrt(dt * np.sum((history["sigma_contact"] - sigma) ** 2)),
+        "error_stress": np.sqrt(dt * np.sum((history["stress_contact"] - sigma) ** 2)),
+        "error_energy": np.max(np.abs(history["energy"] - BAR_ENERGY)),
+        "newton_iterations": np.mean(history["newton_iterations"][1:]),
+        "wall_seconds": time.perf_counter() - start,
+    }
+
+
+def observed_orders(rows: list[dict], name: str) -> list[float]:
+    """log(e_{k-1} / e_k) / log(h_{k-1} / h_k) between consecutive levels (NaN for the
+    first level, and where an error is zero)."""
+    errors = np.array([row[name] for row in rows])
+    ratios = np.array([rows[k - 1]["h"] / rows[k]["h"] for k in range(1, len(rows))])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return [np.nan, *(np.log(errors[:-1] / errors[1:]) / np.log(ratios))]
+
+
+# ### Command line
+
+
+def make_parser() -> argparse.ArgumentParser:
+    """The command-line parser of the demo."""
+    parser = argparse.ArgumentParser(
+        description="1D bouncing bar: convergence when h and tau go to 0 with tau/h fixed.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    parser.add_argument(
+        "--levels",
+        type=int,
+        nargs="+",
+        default=[25, 50, 100, 200, 400],
+        help="numbers of cells N of the levels (h = 1/N)",
+    )
+    parser.add_argument("--ratio", type=finite_float, default=1.5, help="tau / h")
+    parser.add_argument(
+        "--t-end", type=finite_float, default=3.0, help="final time T (3: one period)"
+    )
+    parser.add_argument(
+        "--gamma0", type=finite_float, default=1e-6, help="Nitsche parameter, gamma_h = gamma0 h"
+    )
+    parser.add_argument("--degree", type=int, default=1, help="Lagrange degree")
+    parser.add_argument(
+        "--methods",
+        nargs="+",
+        choices=list(METHODS),
+        default=list(METHODS),
+        help="methods to study",
+    )
+    parser.add_argument(
+        "--out", default=os.path.join("out", "convergence_1d"), help="output folder"
+    )
+    parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
+    return parser
+
+
+# ### Output: CSV, Markdown table with orders, acceptance check
+
+
+def write_csv(rows: list[dict], path: str) -> None:
+    """One line per method and level, full precision."""
+    columns = ["method", "N", "h", "tau", *ERRORS, "newton_iterations", "wall_seconds"]
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for row in rows:
+            writer.writerow(
+                [row[c] if c in ("method", "N") else repr(float(row[c])) for c in columns]
+            )
+
+
+def markdown_table(results: dict[str, list[dict]]) -> str:
+    """Errors and observed orders of every method and level."""
+    header = ["method", "N", "tau"]
+    for title in ERRORS.values():
+        header += [title, "order"]
+    header.append("time (s)")
+    lines = ["| " + " | ".join(header) + " |", "|---" * len(header) + "|"]
+    for name, rows in results.items():
+        orders = {error: observed_orders(rows, error) for error in ERRORS}
+        for k, row in enumerate(rows):
+            cells = [METHODS[name].label, str(row["N"]), f"{row['tau']:.5f}"]
+            for error in ERRORS:
+                order = orders[error][k]
+                cells += [f"{row[error]:.3e}", "" if np.isnan(order) else f"{order:.2f}"]
+            cells.append(f"{row['wall_seconds']:.1f}")
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def acceptance(rows: list[dict]) -> str:
+    """The check of the hybrid scheme: errors decrease at every level, and over the finest
+    three levels the l2(L2) order is >= 0.6 and the l2(H1) order >= 0.25 (both steps)."""
+    names = ("error_l2_l2", "error_l2_h1", "error_energy")
+    decreasing = all(
+        rows[k][name] < rows[k - 1][name] for name in names for k in range(1, len(rows))
+    )
+    l2 = observed_orders(rows, "error_l2_l2")[-2:]
+    h1 = observed_orders(rows, "error_l2_h1")[-2:]
+    passed = decreasing and len(rows) >= 3 and min(l2) >= 0.6 and min(h1) >= 0.25
+    return (
+        f"hybrid: errors of u and of the energy decrease at every level: {decreasing}; "
+        f"orders over the finest three levels: l2(L2) {l2[0]:.2f}, {l2[1]:.2f} (>= 0.6), "
+        f"l2(H1) {h1[0]:.2f}, {h1[1]:.2f} (>= 0.25): {'PASS' if passed else 'FAIL'}"
+    )
+
+
+# ### The figure
+#
+# Four log-log panels against $h$ (the talk's two figures): the two errors
+# of $u$, the contact pressure (solid: $\lambda_h$, dashed: $\sigma_n(u_h)$)
+# and the energy, with reference slopes $1/2$ and $1$.
+
+
+def slope_triangle(ax, x0: float, y0: float, slope: float, label: str, width: float = 2.0):
+    """A reference triangle of the given slope with its lower-left corner at (x0, y0)."""
+    x1, y1 = x0 * width, y0 * width**slope
+    ax.plot([x0, x1, x1, x0], [y0, y0, y1, y0], color="dimgray", lw=0.9)
+    ax.text(x1 * 1.05, np.sqrt(y0 * y1), label, fontsize="small", color="dimgray", va="center")
+
+
+def latex_number(x: float) -> str:
+    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
+    mantissa, _, exponent = f"{x:.3g}".partition("e")
+    if not exponent:
+        return mantissa
+    power = f"10^{{{int(exponent)}}}"
+    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
+
+
+def plot(results: dict[str, list[dict]], args: argparse.Namespace, path: str) -> None:
+    """Draw the error curves of every method into ``path``."""
+    try:
+        import matplotlib
+    except ImportError:
+        print("matplotlib is not installed: no figure")
+        return
+    matplotlib.use("Agg")  # no display needed
+    import matplotlib.pyplot as plt
+
+    panels = (
+        (("error_l2_l2",), r"$u$ in $\ell^2(\tau; L^2(0, 1))$"),
+        (("error_l2_h1",), r"$u$ in $\ell^2(\tau; H^1(0, 1))$ (seminorm)"),
+        (
+            ("error_pressure", "error_stress"),
+            r"pressure at $x = 0$ in $\ell^2(\tau)$: $\lambda_h$ (solid), $\sigma_n(u_h)$ (dashed)",
+        ),
+        (("error_energy",), r"energy: $\max_n |E^{h,n} - 1/8|$"),
+    )
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
+    fig.subplots_adjust(left=0.07, right=0.97, top=0.92, bottom=0.1, hspace=0.28, wspace=0.2)
+    for ax, (names, title) in zip(axes.flat, panels):
+        low = np.inf
+        for name, rows in results.items():
+            method = METHODS[name]
+            h = np.array([row["h"] for row in rows])
+            for error, style in zip(names, ("-", "--")):
+                values = np.array([row[error] for row in rows])
+                ax.loglog(
+                    h,
+                    values,
+                    color=method.color,
+                    marker=method.marker,
+                    ls=style,
+                    ms=5,
+                    label=method.label if style == "-" else None,
+                )
+                low = min(low, values.min())
+        # the reference slopes, below every curve, over the finest levels
+        h = np.sort([row["h"] for row in next(iter(results.values()))])
+        slope_triangle(ax, h[0] * 1.15, low / 1.8, 0.5, "1/2")
+        slope_triangle(ax, h[0] * 1.15 * 2.0**1.6, low / 1.8, 1.0, "1")
+        ax.set_xticks(h)
+        ax.set_xticks([], minor=True)
+        ax.set_xticklabels([f"1/{round(1 / x)}" for x in h])
+        ax.set_title(title, fontsize="medium")
+        ax.set_xlabel("$h$")
+        ax.grid(alpha=0.3, which="both")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=len(results))
+    fig.suptitle(
+        rf"1D bouncing bar: convergence with $\tau = {args.ratio:g}\,h$ over "
+        rf"$(0, {args.t_end:g})$, Nitsche $\Theta = 1$, $\gamma_0 = {latex_number(args.gamma0)}$, "
+        rf"P{args.degree}"
+    )
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+    print(f"figure: {path}")
+
+
+# ### Main
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the demo with the command-line arguments ``argv``."""
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    if len(args.levels) < 2 or min(args.levels) < 1:
+        parser.error(f"--levels needs at least two positive numbers of cells, got {args.levels}")
+    levels = sorted(args.levels)
+    comm = MPI.COMM_WORLD
+    results = {}
+    with one_line_errors(parser):
+        for name in args.methods:
+            results[name] = []
+            for nx in levels:
+                row = run_level(METHODS[name], nx, args.ratio, args.t_end, args.gamma0, args.degree)
+                results[name].append(row)
+                if comm.rank == 0:
+                    print(
+                        f"{name:14s} N = {nx:4d}: l2(L2) {row['error_l2_l2']:.3e}, "
+                        f"l2(H1) {row['error_l2_h1']:.3e} ({row['wall_seconds']:.1f} s)",
+                        flush=True,
+                    )
+    if comm.rank != 0:
+        return
+    os.makedirs(args.out, exist_ok=True)
+    write_csv(
+        [row for rows in results.values() for row in rows],
+        os.path.join(args.out, "convergence.csv"),
+    )
+    table = markdown_table(results)
+    with open(os.path.join(args.out, "convergence.md"), "w") as f:
+        f.write(table + "\n")
+    print(table)
+    if "hybrid" in results and len(levels) >= 3:
+        print(acceptance(results["hybrid"]))
+    print(f"table: {os.path.join(args.out, 'convergence.csv')}")
+    if not args.no_plot:
+        plot(results, args, os.path.join(args.out, "convergence_1d.png"))
+
+
+if __name__ == "__main__":
+    main()
