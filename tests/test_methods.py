@@ -80,3 +80,22 @@ def test_mixed_parallel_matches_serial():
     serial = history(bar_simulation(CrankNicolson(), method="mixed", t_end=1.5, comm=MPI.COMM_SELF))
     for column in BAR_COLUMNS:
         assert np.allclose(parallel[column], serial[column], rtol=1e-10, atol=1e-12), column
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("dim", [2, 3])
+def test_mixed_method_in_2d_and_3d(dim):
+    """The multiplier space builds on every dolfinx: a block dropped on the ground with the
+    modified mass keeps its energy and does not penetrate the ground."""
+    import sys
+
+    sys.path.insert(0, __file__.rsplit("/", 1)[0])
+    from test_problem import dropped_block
+
+    from nitsche_dolfinx.mixed import MixedSimulation
+
+    problem = dropped_block(dim, gravity=0.5)
+    problem.mass = "redistributed"
+    h = history(MixedSimulation(problem, dt=0.01, t_end=0.3))
+    assert h["contact_force"].max() > 0
+    assert np.abs(h["energy"] - h["energy"][0]).max() < 0.01 * h["energy"][0]
