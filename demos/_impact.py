@@ -26,9 +26,11 @@ from nitsche_dolfinx import HISTORY_COLUMNS, Simulation, compat, make_scheme
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
     finite_float,
+    one_line_errors,
     petsc_option,
 )
 from nitsche_dolfinx.cases import impact_problem
+from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.solver import rigid_body_modes
 
 #: Time of the talk's picture of the deformed ball.
@@ -275,15 +277,6 @@ def print_summary(results: list[dict], args: argparse.Namespace) -> None:
 
 
 # -- the energy figure -------------------------------------------------------------------
-
-
-def latex_number(x: float) -> str:
-    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
-    mantissa, _, exponent = f"{x:.3g}".partition("e")
-    if not exponent:
-        return mantissa
-    power = f"10^{{{int(exponent)}}}"
-    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
 #: Colours of the schemes in the energy figure, as in the talk's legend order.
@@ -552,3 +545,26 @@ def _curved_edges(pyvista, cells: np.ndarray, points: np.ndarray, samples: int):
     indices = np.arange(count * length).reshape(count, length)
     polylines = np.hstack([np.full((count, 1), length), indices]).ravel()
     return pyvista.PolyData(polyline_points, lines=polylines)
+
+
+def main(dim: int, body: str, description: str, argv: list[str] | None = None) -> None:
+    """The ball (``dim=3``) or disk (``dim=2``) demo: main run, comparison runs, outputs."""
+    parser = make_parser(description, default_out=os.path.join("out", f"{body}_{dim}d"))
+    args = parser.parse_args(argv)
+    schemes = [args.scheme] + compared_runs(args)
+    snapshot = Snapshot(at=PICTURE_TIME)  # the time of the talk's picture
+    with one_line_errors(parser):
+        results = [
+            run(args, dim, args.scheme, args.out, output_every=args.output_every, callback=snapshot)
+        ]
+        for name in schemes[1:]:
+            results.append(run(args, dim, name, os.path.join(args.out, name), compared=True))
+
+    if MPI.COMM_WORLD.rank == 0:
+        print_summary(results, args)
+        if args.output_every > 0:
+            print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+        if not args.no_plot:
+            plot_energies(results, schemes, args, body, os.path.join(args.out, "energy.png"))
+            title = f"{body}, {results[0]['label']}"
+            render_deformed(snapshot, dim, title, os.path.join(args.out, "deformed_t18.png"))

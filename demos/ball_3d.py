@@ -139,22 +139,8 @@
 # `demos/_impact.py`.
 
 # +
-import os
+from _impact import main
 
-from _impact import (
-    Snapshot,
-    compared_runs,
-    make_parser,
-    plot_energies,
-    print_summary,
-    render_deformed,
-    run,
-)
-from mpi4py import MPI
-
-from nitsche_dolfinx.arguments import one_line_errors
-
-DIM = 3
 # -
 
 # ### Main
@@ -165,32 +151,5 @@ DIM = 3
 # `OUT/<scheme>/history.csv`. A bad parameter, a Newton failure or a PETSc
 # error stops the demo with a one-line message.
 
-
-def main(argv: list[str] | None = None) -> None:
-    """Run the demo with the command-line arguments ``argv``."""
-    parser = make_parser(
-        "Impact of an elastic ball on a rigid plane (3D), Nitsche's method.",
-        default_out=os.path.join("out", "ball_3d"),
-    )
-    args = parser.parse_args(argv)
-    schemes = [args.scheme] + compared_runs(args)
-    snapshot = Snapshot(at=18.0)  # the time of the talk's picture
-    with one_line_errors(parser):
-        results = [
-            run(args, DIM, args.scheme, args.out, output_every=args.output_every, callback=snapshot)
-        ]
-        for name in schemes[1:]:
-            results.append(run(args, DIM, name, os.path.join(args.out, name), compared=True))
-
-    if MPI.COMM_WORLD.rank == 0:
-        print_summary(results, args)
-        if args.output_every > 0:
-            print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
-        if not args.no_plot:
-            plot_energies(results, schemes, args, "ball", os.path.join(args.out, "energy.png"))
-            title = f"ball, {results[0]['label']}"
-            render_deformed(snapshot, DIM, title, os.path.join(args.out, "deformed_t18.png"))
-
-
 if __name__ == "__main__":
-    main()
+    main(3, "ball", "Impact of an elastic ball on a rigid plane (3D), Nitsche's method.")

@@ -121,6 +121,7 @@ from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, sch
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
 from nitsche_dolfinx.cases import BAR_METHODS
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.problem import MASS_MATRICES
 
 # Names of the schemes in the figure and the summary
@@ -258,15 +259,6 @@ def print_summary(results: list[dict], dt: float) -> None:
 # Four panels as in the talk: displacement, velocity and contact pressure at
 # $x = 0$, and the energy, each against time and over the exact solution.
 # matplotlib is optional: without it the demo only skips the figure.
-
-
-def latex_number(x: float) -> str:
-    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
-    mantissa, _, exponent = f"{x:.3g}".partition("e")
-    if not exponent:
-        return mantissa
-    power = f"10^{{{int(exponent)}}}"
-    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
 def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:

@@ -119,6 +119,7 @@ from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import finite_float, one_line_errors
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.schemes import make_scheme
 
 
@@ -281,15 +282,6 @@ def write_summary(specs: list[Run], rows: list[dict], out: str) -> str:
 # zoom on the displacement during the second contact phase. The velocity of
 # the modified mass run is its mean velocity over each step (see above).
 # matplotlib is optional.
-
-
-def latex_number(x: float) -> str:
-    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
-    mantissa, _, exponent = f"{x:.3g}".partition("e")
-    if not exponent:
-        return mantissa
-    power = f"10^{{{int(exponent)}}}"
-    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
 def plot(specs: list[Run], histories: list[dict], args: argparse.Namespace, path: str) -> None:

@@ -143,6 +143,7 @@ from nitsche_dolfinx import BAR_CONTACT, BoundaryAverage, cases
 from nitsche_dolfinx.arguments import finite_float, one_line_errors
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.exact import BAR_ENERGY, BarSpaceTimeErrors, bar_contact_values
+from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.schemes import make_scheme
 
 
@@ -363,15 +364,6 @@ def slope_triangle(ax, x0: float, y0: float, slope: float, label: str, width: fl
     x1, y1 = x0 * width, y0 * width**slope
     ax.plot([x0, x1, x1, x0], [y0, y0, y1, y0], color="dimgray", lw=0.9)
     ax.text(x1 * 1.05, np.sqrt(y0 * y1), label, fontsize="small", color="dimgray", va="center")
-
-
-def latex_number(x: float) -> str:
-    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
-    mantissa, _, exponent = f"{x:.3g}".partition("e")
-    if not exponent:
-        return mantissa
-    power = f"10^{{{int(exponent)}}}"
-    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
 def plot(results: dict[str, list[dict]], args: argparse.Namespace, path: str) -> None:

@@ -118,6 +118,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import HISTORY_COLUMNS, ContactProblem, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
 from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.plotting import latex_number
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")
@@ -232,15 +233,6 @@ def summarize(history: dict, seconds: float) -> None:
 # the losses at the impact show. Bottom: the contact force
 # $\int_{\Gamma_C} \frac{1}{\gamma_h}[P_\gamma(u_h)]_+$. matplotlib is optional:
 # without it the demo only skips the figure.
-
-
-def latex_number(x: float) -> str:
-    """``x`` for a LaTeX title: ``1e-06`` becomes ``10^{-6}``."""
-    mantissa, _, exponent = f"{x:.3g}".partition("e")
-    if not exponent:
-        return mantissa
-    power = f"10^{{{int(exponent)}}}"
-    return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
 def plot(history: dict, args: argparse.Namespace, scheme: str, path: str) -> None:
