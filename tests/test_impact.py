@@ -8,17 +8,9 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation
 from nitsche_dolfinx.cases import impact_problem
+from nitsche_dolfinx.problem import STATE_COLUMNS
 
-COLUMNS = (
-    "energy",
-    "energy_theta",
-    "kinetic",
-    "elastic",
-    "potential",
-    "contact_force",
-    "contact_area",
-    "penetration_max",
-)
+COLUMNS = STATE_COLUMNS
 
 
 def run(scheme=None, t_end=40.0, comm=MPI.COMM_WORLD, out=None, output_every=0, **kwargs):

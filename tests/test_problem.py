@@ -84,22 +84,14 @@ def test_impact_hybrid_energy_theta_never_grows(dim):
 @pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
 def test_parallel_matches_serial_2d(scheme):
     """Energies, forces and penetration on all ranks equal those of a one-rank run."""
-    columns = (
-        "energy",
-        "energy_theta",
-        "kinetic",
-        "elastic",
-        "potential",
-        "contact_force",
-        "contact_area",
-        "penetration_max",
-    )
+    from nitsche_dolfinx.problem import STATE_COLUMNS
+
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
         problem = dropped_block(2, comm=comm, gravity=0.5, degree=2)
         runs.append(Simulation(problem, scheme, dt=0.01, t_end=0.2).run())
     for parallel, serial in zip(*runs):
-        for column in columns:
+        for column in STATE_COLUMNS:
             assert parallel[column] == pytest.approx(serial[column], rel=1e-10, abs=1e-10), column
 
 
