@@ -17,6 +17,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
 from petsc4py import PETSc
 
 __all__ = [
@@ -210,13 +211,7 @@ def has_mumps(comm) -> bool:
     finally:
         pc.destroy()
         A.destroy()
-    return bool(comm.allreduce(found, op=_mpi_land()))
-
-
-def _mpi_land():
-    from mpi4py import MPI
-
-    return MPI.LAND
+    return bool(comm.allreduce(found, op=MPI.LAND))
 
 
 def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> None:

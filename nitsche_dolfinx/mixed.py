@@ -29,7 +29,7 @@ from dolfinx import fem
 from . import compat
 from .contact import positive_part
 from .diagnostics import assemble_global
-from .problem import ContactProblem, _massless_velocity
+from .problem import ContactProblem, _massless_velocity, check_time_parameters
 from .schemes import CrankNicolson
 from .solver import SNESSolver
 
@@ -74,12 +74,9 @@ class MixedSimulation:
     def __init__(self, problem: ContactProblem, dt: float, t_end: float, petsc_options=None):
         if len(problem.contacts) != 1:
             raise ValueError("the mixed method takes exactly one obstacle")
-        if problem.dirichlet and any(value._function is not None for _, value in problem.dirichlet):
-            raise ValueError("the mixed method supports constant Dirichlet values only")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"the time step must be positive, got dt={dt!r}")
-        if not (np.isfinite(t_end) and t_end >= dt):
-            raise ValueError(f"the final time must be at least one time step, got t_end={t_end!r}")
+        if any(v.time_dependent or np.any(v.value_at(0.0)) for _, v in problem.dirichlet):
+            raise ValueError("the mixed method supports homogeneous Dirichlet values only")
+        check_time_parameters(dt, t_end)
         self.problem, self.dt, self.t_end = problem, float(dt), float(t_end)
         self.num_steps = int(round(self.t_end / self.dt))
         self.scheme = CrankNicolson()
@@ -108,11 +105,9 @@ class MixedSimulation:
 
         # Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C
         bcs = []
-        for bc_tag, value in problem.dirichlet:
+        for bc_tag, _ in problem.dirichlet:
             dofs = fem.locate_dofs_topological((W.sub(0), V0), fdim, problem.facets(bc_tag))
             bcs.append(fem.dirichletbc(fem.Function(V0), dofs, W.sub(0)))
-            if np.any(value.value_at(0.0)):
-                raise ValueError("the mixed method supports homogeneous Dirichlet values only")
         mesh.topology.create_connectivity(0, mesh.topology.dim)
         num_vertices = mesh.topology.index_map(0).size_local + mesh.topology.index_map(0).num_ghosts
         every = fem.locate_dofs_topological(

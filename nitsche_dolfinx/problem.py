@@ -69,6 +69,16 @@ STATE_COLUMNS = (
 HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds")
 
 
+def check_time_parameters(dt: float, t_end: float) -> None:
+    """Raise a ValueError naming dt or t_end unless 0 < dt <= t_end, both finite."""
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"the time step must be positive, got dt={dt!r}")
+    if not (np.isfinite(t_end) and t_end >= dt):
+        raise ValueError(
+            f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}"
+        )
+
+
 def _massless_velocity(massless, u, u1, v1, a1, dt) -> None:
     """At massless dofs (redistributed mass) the scheme's velocity update means nothing:
     the node follows its constraint. Report the step's mean velocity there instead."""
@@ -86,6 +96,11 @@ class _TimeDependentValue:
         self.constant = fem.Constant(mesh, _as_array(initial, shape, what))
         self.shape = shape
         self.what = what
+
+    @property
+    def time_dependent(self) -> bool:
+        """Whether the value is a function of t."""
+        return self._function is not None
 
     def value_at(self, t: float) -> np.ndarray:
         if self._function is None:
@@ -356,12 +371,7 @@ class Simulation:
         reuse_jacobian: bool = True,
         preconditioner_lag: int = 0,
     ):
-        if not (np.isfinite(dt) and dt > 0):
-            raise ValueError(f"the time step must be positive, got dt={dt!r}")
-        if not (np.isfinite(t_end) and t_end >= dt):
-            raise ValueError(
-                f"the final time must be at least one time step, got t_end={t_end!r} < dt={dt!r}"
-            )
+        check_time_parameters(dt, t_end)
         if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
             raise ValueError(
                 "mass='redistributed' with the hybrid scheme: the massless contact nodes "
