@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import numpy as np
 from mpi4py import MPI
 
 from .diagnostics import BoundaryAverage
 from .material import Material
-from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh
+from .meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
 from .obstacles import PlaneObstacle
 from .problem import ContactProblem
 
@@ -16,6 +17,7 @@ __all__ = [
     "add_bar_probes",
     "bar_problem",
     "bar_simulation",
+    "block_problem",
     "impact_problem",
 ]
 
@@ -149,4 +151,58 @@ def impact_problem(
         problem.add_obstacle(PlaneObstacle(point=[0.0] * dim, normal=up), contact_tag)
     problem.add_body_force([-0.1 * c for c in up])
     problem.set_initial_conditions(displacement=[5.0 * c for c in up])
+    return problem
+
+
+def block_problem(
+    friction: float | None = 0.2,
+    v0: float = 1.0,
+    gravity: float = 1.0,
+    slope: float = 0.0,
+    E: float = 1e4,
+    rho: float = 1.0,
+    width: float = 2.0,
+    height: float = 1.0,
+    nx: int = 8,
+    ny: int = 4,
+    degree: int = 2,
+    gamma0: float | None = None,
+    nitsche_theta: float = 1.0,
+    comm=MPI.COMM_WORLD,
+) -> ContactProblem:
+    """A block resting on the rigid plane y = 0 under gravity, thrown along it (plane strain).
+
+    The block (-width/2, width/2) x (0, height), with nu = 0, starts in its static
+    equilibrium on a frictionless plane, u0 = -(rho g / E) (H y - y^2 / 2) e_y (exact in
+    P2; P1 starts with a small vibration), with the velocity v0 e_x. The volume force is
+    rho g (slope, -1): gravity g normal to the plane and ``slope`` times it along x, an
+    incline of angle atan(slope) seen in the frame of the plane. A rigid block then slides with the
+    deceleration g (mu_f - slope) and stops at t = v0 / (g (mu_f - slope)) when
+    mu_f > slope; with v0 = 0 it sticks when slope <= mu_f and slides with the acceleration
+    g (slope - mu_f) otherwise. A stiff block (large E) is nearly rigid.
+
+    Args:
+        friction: Coulomb coefficient mu_f (None: frictionless).
+        gamma0: Nitsche parameter; default 1e-3 / E (the scale of the ball test).
+    """
+    mesh, tags = block_mesh(width, height, nx, ny, comm=comm)
+    material = Material(E=E, nu=0.0, rho=rho)
+    problem = ContactProblem(
+        mesh,
+        tags,
+        material,
+        degree=degree,
+        gamma0=1e-3 / E if gamma0 is None else gamma0,
+        nitsche_theta=nitsche_theta,
+        friction=friction,
+    )
+    problem.add_obstacle(PlaneObstacle(point=[0.0, 0.0], normal=[0.0, 1.0]), BLOCK_CONTACT)
+    problem.add_body_force([rho * gravity * slope, -rho * gravity])
+    sag = rho * gravity / E
+    problem.set_initial_conditions(
+        displacement=lambda x: np.vstack(
+            [np.zeros(x.shape[1]), -sag * (height * x[1] - x[1] ** 2 / 2)]
+        ),
+        velocity=[v0, 0.0],
+    )
     return problem

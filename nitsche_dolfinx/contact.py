@@ -8,6 +8,15 @@ Notation of the talk, with ``gamma_h = gamma0 h_T``::
     contact term    = int_Gamma_C (1/gamma_h) [P_gamma(u)]_+ P_Thgamma(v)
     lambda_h        = -(1/gamma_h) [P_gamma(u)]_+        (contact pressure, <= 0)
 
+Coulomb friction (coefficient mu_f, SPEC section 2), with ``[x]_r`` the projection
+onto the ball of radius r and ``u'_t`` the tangential velocity of the time scheme::
+
+    P_t(u)          = u'_t - gamma_h sigma_t(u)
+    r               = mu_f [P_gamma(u)]_+
+    friction term   = int_Gamma_C (1/gamma_h) [P_t(u)]_r . (v_t - Theta gamma_h sigma_t(v))
+                      - int_Gamma_C Theta gamma_h sigma_t(u) . sigma_t(v)   (tangential part of A)
+    lambda_t        = -(1/gamma_h) [P_t(u)]_r        (friction traction)
+
 Nothing here assembles or solves: every function returns a UFL expression or form.
 """
 
@@ -15,10 +24,12 @@ from __future__ import annotations
 
 import ufl
 
-from .material import sigma_n
+from .material import sigma_n, sigma_t
 
 __all__ = [
     "NitscheContact",
+    "ball_projection",
+    "stick_projection",
     "PenaltyContact",
     "heaviside",
     "hybrid_contact_force",
@@ -36,6 +47,25 @@ def positive_part(x):
 def heaviside(x):
     """H(x) = 1 if x > 0, else 0."""
     return ufl.conditional(ufl.gt(x, 0), 1, 0)
+
+
+def ball_projection(x, radius):
+    """[x]_r: the projection of the vector ``x`` onto the closed ball of radius r >= 0.
+
+    Written as ``k x`` with a scalar factor k, 1 inside the ball and r/|x| outside,
+    so that ``ufl.derivative`` gives the semismooth Jacobian: the identity inside
+    (stick, zero slip included), the tangent projection scaled by r/|x| outside (slip).
+    Where r = 0 (no contact, or mu_f = 0) the factor and its derivative are exactly
+    zero: no 0/0 is ever selected, and [x]_0 = 0 reproduces frictionless contact.
+    """
+    norm = ufl.sqrt(ufl.dot(x, x))
+    inside = ufl.conditional(ufl.le(norm, radius), 1, radius / norm)
+    return ufl.conditional(ufl.gt(radius, 0), inside, 0) * x
+
+
+def stick_projection(x, radius):
+    """The stick branch of [x]_r: x where r > 0, 0 where r = 0 (the stick predictor)."""
+    return ufl.conditional(ufl.gt(radius, 0), 1, 0) * x
 
 
 def nitsche_projection(u_n, gap, sigma_n_u, gamma_h):
@@ -61,7 +91,8 @@ def hybrid_contact_force(P_old, P_mid, P_new):
 
 
 class NitscheContact:
-    """Frictionless Nitsche contact of one boundary part Gamma_C with one rigid obstacle.
+    """Nitsche contact of one boundary part Gamma_C with one rigid obstacle,
+    frictionless or with Coulomb friction.
 
     Args:
         obstacle: The rigid obstacle (:mod:`nitsche_dolfinx.obstacles`).
@@ -69,9 +100,14 @@ class NitscheContact:
         stress: Function from a displacement to its stress tensor.
         gamma_h: gamma0 h_T, an expression constant on each cell.
         nitsche_theta: The variant Theta (1 symmetric, 0 non-symmetric, -1 skew-symmetric).
+        friction: The Coulomb coefficient mu_f (a ``fem.Constant``), or None for frictionless
+            contact: then no tangential term is written at all. With a coefficient, the
+            tangential terms are switched on where mu_f > 0, so that mu_f = 0 is exactly
+            the frictionless problem (Coulomb's law with mu_f = 0 is sigma_t = 0, which
+            the frictionless formulation already satisfies weakly).
     """
 
-    def __init__(self, obstacle, ds, stress, gamma_h, nitsche_theta):
+    def __init__(self, obstacle, ds, stress, gamma_h, nitsche_theta, friction=None):
         mesh = ds.ufl_domain()
         x = ufl.SpatialCoordinate(mesh)
         self.obstacle = obstacle
@@ -82,6 +118,12 @@ class NitscheContact:
         self.n = ufl.FacetNormal(mesh)
         self.n_c = obstacle.normal(x)
         self.gap = obstacle.gap(x)
+        self.friction = friction
+
+    @property
+    def frictional(self) -> bool:
+        """Whether the contact has a Coulomb coefficient (possibly zero)."""
+        return self.friction is not None
 
     # -- pointwise quantities --------------------------------------------------------
 
@@ -105,6 +147,34 @@ class NitscheContact:
             self.normal_displacement(v), self.sigma_n(v), self.gamma_h, self.nitsche_theta
         )
 
+    def tangential(self, w):
+        """w_t = w - (w . n_c) n_c."""
+        return w - ufl.dot(w, self.n_c) * self.n_c
+
+    def sigma_t(self, u):
+        """sigma_t(u) = sigma(u) n - sigma_n(u) n_c."""
+        return sigma_t(self.stress(u), self.n, self.n_c)
+
+    def tangential_projection(self, u, velocity):
+        """P_t(u) = u'_t - gamma_h sigma_t(u)."""
+        return self.tangential(velocity) - self.gamma_h * self.sigma_t(u)
+
+    def tangential_test_projection(self, v):
+        """v_t - Theta gamma_h sigma_t(v)."""
+        return self.tangential(v) - self.nitsche_theta * self.gamma_h * self.sigma_t(v)
+
+    def friction_switch(self):
+        """1 where the tangential terms are on (mu_f > 0), else 0."""
+        return ufl.conditional(ufl.gt(self.friction, 0), 1, 0)
+
+    def friction_traction(self, u, velocity, normal_force, stick=False):
+        """lambda_t = -(1/gamma_h) [P_t(u)]_{mu_f normal_force}, where normal_force is
+        [P_gamma(u)]_+ (or the hybrid scheme's Phi); with ``stick``, the stick branch
+        -(1/gamma_h) P_t(u) wherever mu_f normal_force > 0."""
+        radius = self.friction * normal_force
+        projection = stick_projection if stick else ball_projection
+        return -projection(self.tangential_projection(u, velocity), radius) / self.gamma_h
+
     def pressure(self, u):
         """Discrete contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ (<= 0)."""
         return -positive_part(self.projection(u)) / self.gamma_h
@@ -123,27 +193,69 @@ class NitscheContact:
         """int (1/gamma_h) force P_Thgamma(v), where force is [P_gamma(u)]_+ or Phi."""
         return force / self.gamma_h * self.test_projection(v) * self.ds
 
-    def residual(self, u, v):
-        """Boundary terms of the Nitsche operator B(u)(v) at one time level."""
-        return self.consistency_term(u, v) + self.contact_term(positive_part(self.projection(u)), v)
-
-    def hybrid_residual(self, u_old, u_new, v):
-        """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi."""
-        u_mid = (u_old + u_new) / 2
-        force = hybrid_contact_force(
-            self.projection(u_old), self.projection(u_mid), self.projection(u_new)
-        )
-        return self.consistency_term(u_mid, v) + self.contact_term(force, v)
-
-    def energy_correction(self, u):
-        """E_Theta - E = -Theta/2 (||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P(u)]_+||^2)."""
-        P_plus = positive_part(self.projection(u))
+    def tangential_consistency_term(self, u, v):
+        """The tangential part of A_Thgamma: -int Theta gamma_h sigma_t(u) . sigma_t(v),
+        where mu_f > 0."""
         return (
-            -self.nitsche_theta
-            / 2
-            * (self.gamma_h * self.sigma_n(u) ** 2 - P_plus**2 / self.gamma_h)
+            -self.friction_switch()
+            * self.nitsche_theta
+            * self.gamma_h
+            * ufl.dot(self.sigma_t(u), self.sigma_t(v))
             * self.ds
         )
+
+    def friction_term(self, u, velocity, normal_force, v, stick=False):
+        """int (1/gamma_h) [P_t(u)]_{mu_f normal_force} . (v_t - Theta gamma_h sigma_t(v))
+        (with ``stick``: the stick branch, see :meth:`friction_traction`)."""
+        traction = self.friction_traction(u, velocity, normal_force, stick)
+        return -ufl.dot(traction, self.tangential_test_projection(v)) * self.ds
+
+    def residual(self, u, v, velocity=None, stick=False):
+        """Boundary terms of the Nitsche operator B(u)(v) at one time level; with friction,
+        ``velocity`` is u' at that level (``stick``: the stick branch of the law)."""
+        force = positive_part(self.projection(u))
+        form = self.consistency_term(u, v) + self.contact_term(force, v)
+        if self.frictional:
+            form = form + self.tangential_consistency_term(u, v)
+            form = form + self.friction_term(u, self._velocity(velocity), force, v, stick)
+        return form
+
+    def hybrid_residual(self, u_old, u_new, v, dt=None, stick=False):
+        """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi; with
+        friction, the slip velocity (u_new - u_old) / dt and the threshold mu_f Phi."""
+        u_mid = (u_old + u_new) / 2
+        force = self.hybrid_force(u_old, u_new)
+        form = self.consistency_term(u_mid, v) + self.contact_term(force, v)
+        if self.frictional:
+            if dt is None:
+                raise ValueError("the hybrid scheme's friction term needs the time step dt")
+            form = form + self.tangential_consistency_term(u_mid, v)
+            form = form + self.friction_term(u_mid, (u_new - u_old) / dt, force, v, stick)
+        return form
+
+    def hybrid_force(self, u_old, u_new):
+        """Phi(u^n, u^{n+1}), the hybrid scheme's normal force per quadrature point."""
+        u_mid = (u_old + u_new) / 2
+        return hybrid_contact_force(
+            self.projection(u_old), self.projection(u_mid), self.projection(u_new)
+        )
+
+    @staticmethod
+    def _velocity(velocity):
+        if velocity is None:
+            raise ValueError("contact with friction needs the velocity u' of the time level")
+        return velocity
+
+    def energy_correction(self, u):
+        """E_Theta - E = -Theta/2 (||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P(u)]_+||^2),
+        and -Theta/2 ||gamma_h^1/2 sigma_t(u)||^2 with friction (mu_f > 0)."""
+        P_plus = positive_part(self.projection(u))
+        correction = self.gamma_h * self.sigma_n(u) ** 2 - P_plus**2 / self.gamma_h
+        if self.frictional:
+            correction = correction + self.friction_switch() * self.gamma_h * ufl.dot(
+                self.sigma_t(u), self.sigma_t(u)
+            )
+        return -self.nitsche_theta / 2 * correction * self.ds
 
     def force(self, u):
         """Contact force int (1/gamma_h) [P_gamma(u)]_+ (>= 0) as a form."""
@@ -174,6 +286,18 @@ class PenaltyContact(NitscheContact):
         return self.normal_displacement(v)
 
     def consistency_term(self, u, v):
+        """No stress term: zero."""
+        return 0 * ufl.inner(u, v) * self.ds
+
+    def tangential_projection(self, u, velocity):
+        """u'_t: penalised friction, ``[u'_t]_{mu_f [u_n - g]_+} / eps``."""
+        return self.tangential(velocity)
+
+    def tangential_test_projection(self, v):
+        """v_t."""
+        return self.tangential(v)
+
+    def tangential_consistency_term(self, u, v):
         """No stress term: zero."""
         return 0 * ufl.inner(u, v) * self.ds
 

@@ -14,10 +14,11 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from . import compat
 
-__all__ = ["BoundaryAverage", "Diagnostics", "assemble_global"]
+__all__ = ["BoundaryAverage", "BoundaryField", "Diagnostics", "assemble_global"]
 
 
 def assemble_global(form, comm) -> float:
@@ -43,10 +44,53 @@ class BoundaryAverage:
         return assemble_global(self._integral, self.comm) / self._measure
 
 
+class BoundaryField:
+    """A field on the contact boundary, for output: the lumped L2 projection of
+    ``int_Gamma f . mu`` onto the P1 dofs of Gamma, zero elsewhere.
+
+    The source is a linear form ``L(mu)`` in the P1 test function ``mu``, given as a
+    function ``source(mu)`` (for friction: the traction or slip velocity of the last
+    step, which the time scheme writes); the value at a boundary node is
+    ``L(phi_i) / int_Gamma phi_i``. P1 keeps the lumped mass positive on every cell
+    type (P2 vertex functions integrate to zero on triangles).
+
+    Args:
+        mesh: The mesh.
+        shape: Value shape, ``()`` or ``(gdim,)``.
+        ds: Measure of the boundary part (a sum of tagged measures is fine).
+        source: ``source(mu) -> form`` linear in the test function mu.
+        name: Name of the field in the output.
+    """
+
+    def __init__(self, mesh, shape, ds, source, name: str):
+        V = compat.function_space(mesh, "Lagrange", 1, shape)
+        self.function = fem.Function(V, name=name)
+        mu = ufl.TestFunction(V)
+        ones = ufl.as_vector([1.0] * shape[0]) if shape else fem.Constant(mesh, 1.0)
+        lumped = compat.create_vector(V)
+        fem_petsc.assemble_vector(lumped, fem.form(ufl.inner(ones, mu) * ds))
+        lumped.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._lumped = lumped.array.copy()  # owned entries
+        lumped.destroy()
+        self._on_boundary = self._lumped > 0
+        self._form = fem.form(source(mu))
+        self._rhs = compat.create_vector(V)
+
+    def update(self) -> None:
+        """Re-evaluate the source into :attr:`function`."""
+        rhs = self._rhs
+        with rhs.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(rhs, self._form)
+        rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = np.zeros_like(self._lumped)
+        values[self._on_boundary] = rhs.array[self._on_boundary] / self._lumped[self._on_boundary]
+        self.function.x.array[: values.size] = values
+        self.function.x.scatter_forward()
+
+
 def _diagonal_matrix(diagonal):
     """A PETSc AIJ matrix with the given diagonal."""
-    from petsc4py import PETSc
-
     matrix = PETSc.Mat().createAIJ(
         (diagonal.getSizes(), diagonal.getSizes()), nnz=1, comm=diagonal.getComm()
     )

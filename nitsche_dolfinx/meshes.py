@@ -13,12 +13,14 @@ from . import compat
 
 __all__ = [
     "bar_mesh",
+    "block_mesh",
     "cell_diameter",
     "load_mesh",
     "save_mesh",
     "tag_facets",
     "BAR_CONTACT",
     "BAR_CLAMPED",
+    "BLOCK_CONTACT",
 ]
 
 _NUM_VERTICES = {
@@ -32,6 +34,8 @@ _NUM_VERTICES = {
 #: Facet tags of :func:`bar_mesh`: the wall side x = 0 and the clamped end x = L.
 BAR_CONTACT = 1
 BAR_CLAMPED = 2
+#: Facet tag of :func:`block_mesh`: its bottom y = 0.
+BLOCK_CONTACT = 1
 
 
 def cell_diameter(mesh) -> fem.Function:
@@ -84,6 +88,25 @@ def bar_mesh(nx: int = 100, length: float = 1.0, comm=MPI.COMM_WORLD):
             BAR_CLAMPED: lambda x: np.isclose(x[0], length),
         },
     )
+    return mesh, tags
+
+
+def block_mesh(
+    width: float = 2.0, height: float = 1.0, nx: int = 8, ny: int = 4, comm=MPI.COMM_WORLD
+):
+    """The rectangle (-width/2, width/2) x (0, height) in triangles; its bottom y = 0 is
+    tagged :data:`BLOCK_CONTACT`.
+
+    Returns:
+        ``(mesh, facet_tags)``.
+    """
+    if not (width > 0 and height > 0):
+        raise ValueError(f"the block needs a positive size, got {width!r} x {height!r}")
+    if int(nx) < 1 or int(ny) < 1:
+        raise ValueError(f"the block needs at least one cell each way, got nx={nx!r}, ny={ny!r}")
+    corners = [np.array([-width / 2, 0.0]), np.array([width / 2, height])]
+    mesh = dmesh.create_rectangle(comm, corners, [int(nx), int(ny)], dmesh.CellType.triangle)
+    tags = tag_facets(mesh, {BLOCK_CONTACT: lambda x: np.isclose(x[1], 0.0)})
     return mesh, tags
 
 

@@ -11,6 +11,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 import ufl
+from dolfinx import fem
 
 __all__ = ["Obstacle", "PlaneObstacle", "SignedDistanceObstacle"]
 
@@ -61,7 +62,9 @@ class PlaneObstacle(Obstacle):
         )
 
     def normal(self, x):
-        return ufl.as_vector((-self.unit_normal).tolist())
+        # a Constant rather than literals: FFCx 0.5 cannot generate the friction terms'
+        # tangential projection I - n_c n_c^T when its entries are literal numbers
+        return fem.Constant(x.ufl_domain(), -self.unit_normal)
 
     def __repr__(self):
         return f"PlaneObstacle(point={self.point.tolist()}, normal={self.unit_normal.tolist()})"

@@ -31,8 +31,8 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from . import compat
-from .contact import NitscheContact, PenaltyContact
-from .diagnostics import Diagnostics
+from .contact import NitscheContact, PenaltyContact, positive_part
+from .diagnostics import BoundaryField, Diagnostics, assemble_global
 from .mass import lumped_mass, redistributed_mass
 from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
@@ -41,7 +41,9 @@ from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
 
 __all__ = [
+    "BALANCE_COLUMNS",
     "CONTACT_METHODS",
+    "FRICTION_HISTORY_COLUMNS",
     "ContactProblem",
     "HISTORY_COLUMNS",
     "MASS_MATRICES",
@@ -67,6 +69,12 @@ STATE_COLUMNS = (
 )
 #: Columns of ``history.csv`` for the 2D/3D demos (SPEC section 6).
 HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds")
+#: The energy balance of a step, reported by :meth:`Simulation.state` at every level:
+#: D^n, the work of the friction term on the step's increment, and
+#: E_Theta^{n+1} - E_Theta^n + D^n (both 0 at t = 0).
+BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
+#: Columns of ``history.csv`` for the friction demos.
+FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS[:-2], *BALANCE_COLUMNS, *HISTORY_COLUMNS[-2:])
 
 
 def check_time_parameters(dt: float, t_end: float) -> None:
@@ -121,6 +129,71 @@ def _as_array(value, shape, what) -> np.ndarray:
     return array
 
 
+class _FrictionTerms:
+    """A friction quantity of a problem behind the model interface of the time schemes
+    (no inertia, bulk or load), so that ``scheme.residual(terms, w, u, v, a, dt, test)``
+    evaluates it with the step's own slip velocity and threshold (hybrid: v^{n+1/2} and
+    mu_f Phi; theta and Newmark: v^{n+1} and mu_f [P_gamma(u^{n+1})]_+).
+
+    ``term(contact, u, velocity, normal_force, test)`` is the form of one contact.
+    """
+
+    def __init__(self, contacts, term):
+        self.contacts = [contact for contact in contacts if contact.frictional]
+        self.term = term
+
+    def inertia(self, acceleration, v):
+        return 0
+
+    def load(self, v):
+        return 0
+
+    def operator(self, u, v, velocity=None):
+        forms = (
+            self.term(c, u, velocity, positive_part(c.projection(u)), v) for c in self.contacts
+        )
+        return sum(forms, 0)
+
+    def hybrid_operator(self, u_old, u_new, v, dt=None):
+        u_mid, velocity = (u_old + u_new) / 2, (u_new - u_old) / dt
+        forms = (
+            self.term(c, u_mid, velocity, c.hybrid_force(u_old, u_new), v) for c in self.contacts
+        )
+        return sum(forms, 0)
+
+
+class _StickPredictor:
+    """A :class:`ContactProblem` whose friction law is its stick branch (the model
+    interface of the time schemes)."""
+
+    def __init__(self, problem):
+        self.problem = problem
+
+    def inertia(self, acceleration, v):
+        return self.problem.inertia(acceleration, v)
+
+    def load(self, v):
+        return self.problem.load(v)
+
+    def operator(self, u, v, velocity=None):
+        return self.problem.operator(u, v, velocity, stick=True)
+
+    def hybrid_operator(self, u_old, u_new, v, dt=None):
+        return self.problem.hybrid_operator(u_old, u_new, v, dt, stick=True)
+
+
+#: Friction quantities of :meth:`ContactProblem.friction_terms`.
+_FRICTION_QUANTITIES = {
+    # the friction term of the equation: tested with the step's increment, its work
+    "work": lambda c, u, velocity, force, v: c.friction_term(u, velocity, force, v),
+    # int lambda_t . v and int u'_t . v, for output on Gamma_C
+    "traction": lambda c, u, velocity, force, v: (
+        ufl.inner(c.friction_traction(u, velocity, force), v) * c.ds
+    ),
+    "slip_velocity": lambda c, u, velocity, force, v: ufl.inner(c.tangential(velocity), v) * c.ds,
+}
+
+
 class ContactProblem:
     """Linear elastodynamics with Nitsche contact against rigid obstacles.
 
@@ -131,7 +204,11 @@ class ContactProblem:
         degree: Degree of the Lagrange displacement space (1 or 2).
         gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact).
         nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
-        friction: Coulomb coefficient mu_f; only 0 (frictionless) is implemented so far.
+        friction: Coulomb coefficient mu_f >= 0, or None (the default) for frictionless
+            contact. With a coefficient, the frictional Nitsche term of SPEC section 2 is
+            added (:meth:`~nitsche_dolfinx.contact.NitscheContact.friction_term`) with the
+            tangential velocity of the time scheme; mu_f is the ``fem.Constant``
+            attribute ``friction`` and mu_f = 0 is the frictionless problem.
         method: Contact method: ``"nitsche"`` (the default) or ``"penalty"``
             (:class:`~nitsche_dolfinx.contact.PenaltyContact`, eps = gamma0 h_T).
         mass: ``"consistent"`` (the default), ``"lumped"`` (P1: vertex quadrature) or
@@ -155,7 +232,7 @@ class ContactProblem:
         degree: int = 1,
         gamma0: float = 1.0,
         nitsche_theta: float = 1.0,
-        friction: float = 0.0,
+        friction: float | None = None,
         quadrature_degree: int | None = None,
         method: str = "nitsche",
         mass: str = "consistent",
@@ -168,9 +245,10 @@ class ContactProblem:
             raise ValueError(
                 f"the Nitsche variant must be finite, got nitsche_theta={nitsche_theta!r}"
             )
-        if friction != 0.0:
-            raise NotImplementedError(
-                f"friction={friction!r}: Coulomb friction is not implemented yet; use friction=0"
+        if friction is not None and not (np.isfinite(friction) and friction >= 0):
+            raise ValueError(
+                f"the friction coefficient must be >= 0 (or None: frictionless), "
+                f"got friction={friction!r}"
             )
         if int(degree) not in (1, 2):
             raise ValueError(f"degree must be 1 or 2, got degree={degree!r}")
@@ -186,7 +264,6 @@ class ContactProblem:
         self.facet_tags = facet_tags
         self.material = material
         self.degree = int(degree)
-        self.friction = friction
         self.method = method
         self.mass = mass
         self._mass_diagonal = None
@@ -194,6 +271,7 @@ class ContactProblem:
         self.V = compat.function_space(mesh, "Lagrange", self.degree, (self.gdim,))
         self.gamma0 = fem.Constant(mesh, float(gamma0))
         self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
+        self.friction = None if friction is None else fem.Constant(mesh, float(friction))
         self.h = cell_diameter(mesh)
         self.gamma_h = self.gamma0 * self.h
         if quadrature_degree is None:
@@ -250,7 +328,9 @@ class ContactProblem:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
         self.facets(tag)
         law = PenaltyContact if self.method == "penalty" else NitscheContact
-        contact = law(obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta)
+        contact = law(
+            obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction
+        )
         self.contacts.append(contact)
         self.contact_tags.append(tag)
         return contact
@@ -309,19 +389,49 @@ class ContactProblem:
         facets = np.concatenate([self.facets(tag) for tag in self.contact_tags])
         return redistributed_mass(V, self.material.rho, facets)
 
-    def operator(self, u, v):
-        """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact term at one time level."""
+    @property
+    def frictional(self) -> bool:
+        """Whether the contact terms carry Coulomb friction (a coefficient was given)."""
+        return self.friction is not None
+
+    def operator(self, u, v, velocity=None, stick=False):
+        """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact terms at one time level
+        (with friction, ``velocity`` is u' at that level; ``stick``: the stick branch
+        of the friction law, for :meth:`stick_predictor`)."""
         form = self.bulk_stiffness(u, v)
         for contact in self.contacts:
-            form = form + contact.residual(u, v)
+            form = form + contact.residual(u, v, velocity, stick)
         return form
 
-    def hybrid_operator(self, u_old, u_new, v):
-        """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term Phi."""
+    def hybrid_operator(self, u_old, u_new, v, dt=None, stick=False):
+        """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term
+        Phi; with friction, the slip velocity (u_new - u_old) / dt."""
         form = self.bulk_stiffness((u_old + u_new) / 2, v)
         for contact in self.contacts:
-            form = form + contact.hybrid_residual(u_old, u_new, v)
+            form = form + contact.hybrid_residual(u_old, u_new, v, dt, stick)
         return form
+
+    def stick_predictor(self):
+        """The problem with the stick branch of the friction law wherever a point is in
+        contact, behind the model interface of the time schemes (see :class:`Simulation`)."""
+        return _StickPredictor(self)
+
+    def friction_terms(self, quantity: str = "work"):
+        """A friction quantity as a model with the interface of the time schemes, so that
+        the scheme supplies its slip velocity and threshold:
+
+        - ``"work"``: the friction term of the equation; with a Function ``du`` as the
+          test, ``scheme.residual(problem.friction_terms(), w, u, v, a, dt, du)`` is the
+          work of the step's friction force on the increment ``du``;
+        - ``"traction"``: ``int lambda_t . mu`` (lambda_t the friction traction);
+        - ``"slip_velocity"``: ``int u'_t . mu``.
+        """
+        if quantity not in _FRICTION_QUANTITIES:
+            raise ValueError(
+                f"unknown friction quantity {quantity!r}; "
+                f"choose one of {', '.join(_FRICTION_QUANTITIES)}"
+            )
+        return _FrictionTerms(self.contacts, _FRICTION_QUANTITIES[quantity])
 
     def load(self, v):
         """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
@@ -341,6 +451,53 @@ class ContactProblem:
             traction.set_time(t)
 
 
+class _FrictionOutput:
+    """The friction quantities of a :class:`Simulation`: the work D^n of each step, and
+    the fields ``slip_velocity`` and ``friction_traction`` on Gamma_C.
+
+    D^n is the friction term of the step's equation tested with the step's increment
+    u^{n+1} - u^n (the scheme's slip velocity and threshold), so that
+    E_Theta^{n+1} - E_Theta^n + D^n is what the contact terms' energy identity leaves.
+    The fields are the friction law at the time level: u'_t and
+    lambda_t = -(1/gamma_h) [u'_t - gamma_h sigma_t(u)]_{mu_f [P_gamma(u)]_+}.
+    """
+
+    def __init__(self, simulation, dt):
+        sim, problem = simulation, simulation.problem
+        self.comm = problem.mesh.comm
+        self.increment = fem.Function(problem.V)
+        terms = problem.friction_terms("work")
+        work = sim.scheme.residual(terms, sim.w, sim.u, sim.v, sim.a, dt, self.increment)
+        self._work = fem.form(work)
+        tags = tuple(tag for c, tag in zip(problem.contacts, problem.contact_tags) if c.frictional)
+        ds = problem.ds(tags)
+        shape = (problem.gdim,)
+        self.fields = []
+        for name, quantity in (
+            ("slip_velocity", "slip_velocity"),
+            ("friction_traction", "traction"),
+        ):
+            terms = problem.friction_terms(quantity)
+            self.fields.append(
+                BoundaryField(
+                    problem.mesh,
+                    shape,
+                    ds,
+                    lambda mu, terms=terms: terms.operator(sim.u, mu, sim.v),
+                    name,
+                )
+            )
+
+    def work(self, increment: np.ndarray) -> float:
+        """D^n for the step from the current state with the increment (dof array)."""
+        self.increment.x.array[:] = increment
+        return assemble_global(self._work, self.comm)
+
+    def update_fields(self) -> None:
+        for field in self.fields:
+            field.update()
+
+
 class Simulation:
     """March a :class:`ContactProblem` in time with one SNES solve per step.
 
@@ -358,6 +515,13 @@ class Simulation:
         preconditioner_lag: When > 0, keep the last factorised Jacobian as the
             preconditioner of GMRES until a linear solve needs more than this many
             iterations (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+        stick_predictor: With friction, when Newton fails from the last acceleration,
+            start it again from the solution of the step with every contact point
+            sticking (the default). Started from a sliding state, semismooth Newton jumps
+            over the thin stick band |P_t| <= mu_f [P_gamma]_+ from one slip direction to
+            the other and cycles at the step where a point must stop; from the stick
+            state it leaves the band at most once. Each step's Newton iterations then
+            count all three solves.
     """
 
     def __init__(
@@ -370,6 +534,7 @@ class Simulation:
         progress: bool = False,
         reuse_jacobian: bool = True,
         preconditioner_lag: int = 0,
+        stick_predictor: bool = True,
     ):
         check_time_parameters(dt, t_end)
         if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
@@ -417,7 +582,25 @@ class Simulation:
             mass_diagonal=problem.mass_diagonal(),
             preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
         )
+        self._predictor = None
+        self._stick_first = False
+        if problem.frictional and stick_predictor:
+            F_stick = scheme.residual(
+                problem.stick_predictor(), self.w, self.u, self.v, self.a, dt_c, test
+            )
+            self._predictor = SNESSolver(
+                F_stick,
+                self.w,
+                bcs,
+                petsc_options=petsc_options,
+                affine_cell_terms=reuse_jacobian,
+                mass_diagonal=problem.mass_diagonal(),
+            )
         self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self.friction_dissipation = 0.0
+        self._energy_before = None  # E_Theta^n of the last step
+        self._energy_cache = None  # (step index, E_Theta) of the last state()
+        self._friction = _FrictionOutput(self, dt_c) if problem.frictional else None
         self._massless = problem.massless_dofs()
         self._petsc_options = petsc_options
         self._initialize()
@@ -452,7 +635,11 @@ class Simulation:
         problem.set_time(0.0)
         V = problem.V
         test = ufl.TestFunction(V)
-        F0 = problem.inertia(self.a, test) + problem.operator(self.u, test) - problem.load(test)
+        F0 = (
+            problem.inertia(self.a, test)
+            + problem.operator(self.u, test, self.v)
+            - problem.load(test)
+        )
         zero = fem.Function(V)
         bcs = [fem.dirichletbc(zero, dofs) for dofs, _ in self._bc_dofs]
         diagonal = problem.mass_diagonal()
@@ -476,6 +663,15 @@ class Simulation:
     def state(self) -> dict[str, float]:
         """Diagnostics at the current time level, identical on every rank."""
         values = {"t": self.t, **self.diagnostics.compute()}
+        self._energy_cache = (self.step_index, values["energy_theta"])
+        values["friction_dissipation"] = self.friction_dissipation
+        values["energy_balance_residual"] = (
+            0.0
+            if self._energy_before is None
+            else values["energy_theta"] - self._energy_before + self.friction_dissipation
+        )
+        if self._friction is not None:
+            self._friction.update_fields()
         values["newton_iterations"] = self.newton_iterations
         values["step_seconds"] = self.step_seconds
         for name, probe in self._probes.items():
@@ -497,9 +693,10 @@ class Simulation:
             target = u_free.copy()
             self._set_dirichlet(target, t_new)
             self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
+        self._energy_before = self._energy_theta()
         self.w.x.array[:] = self.a.x.array  # initial guess: the last acceleration
         try:
-            iterations = self.solver.solve()
+            iterations = self._solve()
         except SolverError as error:
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
@@ -507,6 +704,8 @@ class Simulation:
             self.u.x.array, self.v.x.array, self.a.x.array, self.w.x.array, dt
         )
         _massless_velocity(self._massless, self.u.x.array, u1, v1, a1, dt)
+        if self._friction is not None:  # before u^n is overwritten
+            self.friction_dissipation = self._friction.work(u1 - self.u.x.array)
         self.u.x.array[:] = u1
         self.v.x.array[:] = v1
         self.a.x.array[:] = a1
@@ -516,6 +715,51 @@ class Simulation:
         self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
+
+    def _energy_theta(self) -> float:
+        """E_Theta at the current level (from the last state() when it was at this level)."""
+        if self._energy_cache is not None and self._energy_cache[0] == self.step_index:
+            return self._energy_cache[1]
+        return self.diagnostics.compute()["energy_theta"]
+
+    def output_fields(self) -> dict:
+        """The fields of ``solution.xdmf``: ``{name: (function or expression, shape)}``:
+        displacement, velocity, von Mises stress, and with friction the slip velocity and
+        the friction traction on Gamma_C (see :class:`_FrictionOutput`)."""
+        shape = (self.problem.gdim,)
+        fields = {
+            "displacement": (self.u, shape),
+            "velocity": (self.v, shape),
+            "von_mises": (self.von_mises(), ()),
+        }
+        if self._friction is not None:
+            for field in self._friction.fields:
+                fields[field.function.name] = (field.function, shape)
+        return fields
+
+    def _solve(self) -> int:
+        """The step's Newton solve. With friction: from the last acceleration and, when
+        that fails, from the stick predictor's solution; once a step needed the
+        predictor, the next ones try it first (points that stick stay stuck) until it
+        fails. Returns the Newton iterations of all the solves."""
+        if self._predictor is None:
+            return self.solver.solve()
+        guess = self.w.x.array.copy()
+        starts = [False, True] if not self._stick_first else [True, False]
+        spent = 0
+        for stick in starts:
+            self.w.x.array[:] = guess
+            try:
+                if stick:
+                    spent += self._predictor.solve()
+                spent += self.solver.solve()
+            except SolverError as error:
+                spent += error.iterations
+                failure = error
+                continue
+            self._stick_first = stick
+            return spent
+        raise failure
 
     def von_mises(self):
         """The von Mises stress of the current displacement, as a UFL expression."""
@@ -545,15 +789,8 @@ class Simulation:
             ensure_directory(out, self.comm)
             history = HistoryWriter(os.path.join(out, "history.csv"), columns, self.comm)
             if output_every > 0:
-                shape = (self.problem.gdim,)
                 xdmf = SolutionWriter(
-                    os.path.join(out, "solution.xdmf"),
-                    self.problem.mesh,
-                    {
-                        "displacement": (self.u, shape),
-                        "velocity": (self.v, shape),
-                        "von_mises": (self.von_mises(), ()),
-                    },
+                    os.path.join(out, "solution.xdmf"), self.problem.mesh, self.output_fields()
                 )
         records = []
         try:

@@ -15,7 +15,8 @@ explicit members (theta = 0, beta = 0) in the same mould.
 - :class:`HybridScheme`: ``u^{n+1} = u^n + tau v^{n+1/2}``,
   ``v^{n+1} = v^n + tau a^{n+1/2}``, bulk terms and load at the midpoint, contact
   term Phi switching per quadrature point (:func:`~nitsche_dolfinx.contact.hybrid_contact_force`);
-  ``w = a^{n+1/2}``.
+  ``w = a^{n+1/2}``. With friction, the slip velocity is ``(u^{n+1} - u^n) / tau = v^{n+1/2}``
+  and the threshold ``mu_f Phi``, consistent with the midpoint.
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ class TimeScheme:
     """Interface of a time scheme (see the module docstring).
 
     The ``model`` passed to :meth:`residual` provides ``inertia(a, v)``,
-    ``operator(u, v)`` (A_Thgamma plus the contact term at one time level),
-    ``hybrid_operator(u_old, u_new, v)`` and ``load(v)``.
+    ``operator(u, v, velocity)`` (A_Thgamma plus the contact terms at one time level;
+    the velocity feeds the friction term), ``hybrid_operator(u_old, u_new, v, dt)`` and
+    ``load(v)``.
     """
 
     name = "scheme"
@@ -83,8 +85,8 @@ class ThetaScheme(TimeScheme):
         return u1, v1, w
 
     def residual(self, model, w, u, v, a, dt, test):
-        u1, _, a1 = self.kinematics(u, v, a, w, dt)
-        return model.inertia(a1, test) + model.operator(u1, test) - model.load(test)
+        u1, v1, a1 = self.kinematics(u, v, a, w, dt)
+        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
 
     def describe(self):
         return f"theta(theta={self.theta:g})"
@@ -126,8 +128,8 @@ class NewmarkScheme(TimeScheme):
         return u1, v1, w
 
     def residual(self, model, w, u, v, a, dt, test):
-        u1, _, a1 = self.kinematics(u, v, a, w, dt)
-        return model.inertia(a1, test) + model.operator(u1, test) - model.load(test)
+        u1, v1, a1 = self.kinematics(u, v, a, w, dt)
+        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
 
     def describe(self):
         return f"newmark(beta={self.beta:g}, gamma={self.gamma:g})"
@@ -148,7 +150,7 @@ class HybridScheme(TimeScheme):
 
     def residual(self, model, w, u, v, a, dt, test):
         u1, _, _ = self.kinematics(u, v, a, w, dt)
-        return model.inertia(w, test) + model.hybrid_operator(u, u1, test) - model.load(test)
+        return model.inertia(w, test) + model.hybrid_operator(u, u1, test, dt) - model.load(test)
 
     def equation_time(self, t, dt):
         return t + dt / 2
