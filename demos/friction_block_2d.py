@@ -1,0 +1,174 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: light
+#       format_version: '1.5'
+# ---
+
+# # A block sliding with Coulomb friction: dynamic frictional contact by Nitsche's method
+#
+# A stiff elastic block (2 x 1, plane strain, $E = 10^4$, $\nu = 0$, $\rho = 1$)
+# rests on the rigid plane $y = 0$ under gravity $g = 1$ and is thrown along it
+# with the velocity $v_0 e_x$. Coulomb friction of coefficient $\mu_f$ slows it
+# down: a rigid block decelerates at $\mu_f g$ and stops at $t = v_0/(\mu_f g)$.
+# With `--slope s` the volume force gets the component $s g$ along $x$ (an
+# incline of angle $\arctan s$ seen in the frame of the plane): the block then
+# decelerates at $g(\mu_f - s)$; started at rest it sticks when $s \le \mu_f$ and
+# slides with the acceleration $g(s - \mu_f)$ otherwise.
+#
+# The contact and friction conditions are written with Nitsche's method (SPEC
+# section 2): with $P_\gamma(u) = u_n - g - \gamma_h \sigma_n(u)$ and the
+# tangential velocity $\dot u_t$ of the time scheme,
+#
+# $$
+# \sigma_n = -\frac{1}{\gamma_h}[P_\gamma(u)]_+, \qquad
+# \sigma_t = -\frac{1}{\gamma_h}\big[\dot u_t - \gamma_h \sigma_t(u)\big]_{\mu_f [P_\gamma(u)]_+},
+# $$
+#
+# where $[x]_r$ is the projection onto the ball of radius $r$. The hybrid scheme
+# (the default) takes the slip velocity $(u^{n+1} - u^n)/\tau$ and the threshold
+# $\mu_f \Phi$ of its normal force, consistent with its midpoint.
+#
+# It shows how to
+#
+# - build a frictional `ContactProblem` with `friction=mu_f` (here through
+#   `nitsche_dolfinx.cases.block_problem`);
+# - follow where the energy goes: `friction_dissipation` (the work $D^n$ of the
+#   friction term over a step) and `energy_balance_residual`
+#   ($E_\Theta^{n+1} - E_\Theta^n + D^n$) in `history.csv`;
+# - write the slip velocity and the friction traction on $\Gamma_C$ to
+#   `solution.xdmf` for ParaView.
+#
+# Run it with `python demos/friction_block_2d.py --out out/block` (serially or
+# under `mpirun -n 2`). The default run ends at the stop, t = 5: at the step after
+# it, semismooth Newton does not converge (see "Friction" in the README: the stick
+# band is 10^6 times thinner than one step's change of velocity).
+
+# +
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+from dolfinx import fem
+from mpi4py import MPI
+
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    finite_float,
+    one_line_errors,
+    scheme_from_arguments,
+)
+from nitsche_dolfinx.cases import block_problem
+from nitsche_dolfinx.diagnostics import assemble_global
+from nitsche_dolfinx.output import ensure_directory
+from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, Simulation
+
+#: ``history.csv`` columns: those of the 2D/3D demos, the energy balance, and the
+#: block's mean velocity along the plane.
+COLUMNS = (*FRICTION_HISTORY_COLUMNS, "mean_velocity")
+
+
+def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namespace]:
+    parser = argparse.ArgumentParser(
+        prog="friction_block_2d.py",
+        description="A stiff block sliding on a rigid plane with Coulomb friction.",
+    )
+    add_method_arguments(parser, gamma0=1e-7, degree=2, dt=0.05, t_end=5.0)
+    parser.add_argument("--mu", type=finite_float, default=0.2, help="friction coefficient")
+    parser.add_argument("--v0", type=finite_float, default=1.0, help="initial velocity along x")
+    parser.add_argument(
+        "--slope", type=finite_float, default=0.0, help="tangential gravity / normal gravity"
+    )
+    parser.add_argument("--E", type=finite_float, default=1e4, help="Young's modulus")
+    parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
+    parser.add_argument("--output-every", type=int, default=10, help="XDMF every N steps")
+    parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
+    parser.add_argument("--quiet", action="store_true", help="no line per step")
+    return parser, parser.parse_args(argv)
+
+
+# -
+# The block, its mean velocity as a history column, and the run:
+
+
+# +
+def run(args) -> list[dict]:
+    problem = block_problem(
+        friction=args.mu,
+        v0=args.v0,
+        slope=args.slope,
+        E=args.E,
+        nx=args.nx,
+        ny=max(1, args.nx // 2),
+        degree=args.degree,
+        gamma0=args.gamma0,
+        nitsche_theta=args.nitsche_theta,
+    )
+    simulation = Simulation(
+        problem,
+        scheme_from_arguments(args),
+        dt=args.dt,
+        t_end=args.t_end,
+        progress=not args.quiet,
+    )
+    comm = problem.mesh.comm
+    rho = problem.material.rho
+    momentum = fem.form(rho * simulation.v[0] * problem.dx)
+    mass = assemble_global(fem.form(rho * fem.Constant(problem.mesh, 1.0) * problem.dx), comm)
+    simulation.add_probe("mean_velocity", lambda: assemble_global(momentum, comm) / mass)
+    return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)
+
+
+# -
+# The rigid-body prediction, for the summary printed at the end:
+
+
+# +
+def rigid_prediction(args) -> str:
+    g = 1.0
+    if args.v0 == 0.0:
+        if args.slope <= args.mu:
+            return "a rigid block sticks"
+        return f"a rigid block slides with acceleration {g * (args.slope - args.mu):.4g}"
+    deceleration = g * (args.mu - args.slope)
+    if deceleration <= 0:
+        return f"a rigid block keeps accelerating at {-deceleration:.4g}"
+    return (
+        f"a rigid block decelerates at {deceleration:.4g} and stops at t = "
+        f"{args.v0 / deceleration:.4g}"
+    )
+
+
+def main(argv=None) -> None:
+    parser, args = parse_arguments(argv)
+    with one_line_errors(parser):
+        if args.mu < 0:
+            raise ValueError(f"the friction coefficient must be >= 0, got --mu {args.mu!r}")
+        ensure_directory(args.out, MPI.COMM_WORLD)
+        history = run(args)
+    if MPI.COMM_WORLD.rank == 0:
+        velocity = np.array([row["mean_velocity"] for row in history])
+        t = np.array([row["t"] for row in history])
+        dissipation = np.array([row["friction_dissipation"] for row in history])
+        balance = np.array([row["energy_balance_residual"] for row in history])
+        print(
+            f"{rigid_prediction(args)}; computed mean velocity at t = {t[-1]:g}: {velocity[-1]:.6g}"
+        )
+        print(
+            f"frictional work: {dissipation.sum():.6g} (smallest step: {dissipation.min():.3g}); "
+            f"largest |energy balance residual|: {np.abs(balance).max():.3g}"
+        )
+        print(
+            f"history: {os.path.join(args.out, 'history.csv')}; "
+            f"fields: {os.path.join(args.out, 'solution.xdmf')}"
+        )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
+# -

@@ -1,0 +1,99 @@
+"""Coulomb friction (issue 7): the sliding block against the rigid-body solution."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from dolfinx import fem
+from mpi4py import MPI
+
+from nitsche_dolfinx.cases import block_problem
+from nitsche_dolfinx.diagnostics import assemble_global
+from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS, Simulation
+from nitsche_dolfinx.schemes import HybridScheme, make_scheme
+
+DT = 0.05
+
+
+def run_block(t_end, scheme=None, petsc_options=None, comm=MPI.COMM_WORLD, **kwargs):
+    """The block's history, with its mean velocity along the plane."""
+    problem = block_problem(comm=comm, **kwargs)
+    simulation = Simulation(
+        problem, scheme or HybridScheme(), dt=DT, t_end=t_end, petsc_options=petsc_options
+    )
+    rho = problem.material.rho
+    momentum = fem.form(rho * simulation.v[0] * problem.dx)
+    mass = assemble_global(fem.form(rho * fem.Constant(problem.mesh, 1.0) * problem.dx), comm)
+    simulation.add_probe("mean_velocity", lambda: assemble_global(momentum, comm) / mass)
+    history = simulation.run()
+    return {name: np.array([row[name] for row in history]) for name in history[0]}, simulation
+
+
+@pytest.mark.parametrize("scheme", ["hybrid", "cn", "newmark"])
+def test_zero_friction_is_frictionless(scheme):
+    # both runs converge to round-off, so that they differ by round-off only
+    exact = {"snes_rtol": 1e-14, "snes_atol": 1e-13}
+    frictionless, sim0 = run_block(0.5, make_scheme(scheme), exact, friction=None, v0=1.0)
+    zero, sim1 = run_block(0.5, make_scheme(scheme), exact, friction=0.0, v0=1.0)
+    for name in STATE_COLUMNS:
+        scale = max(1.0, np.abs(frictionless[name]).max())
+        assert np.abs(zero[name] - frictionless[name]).max() <= 1e-12 * scale, name
+    assert np.abs(sim1.u.x.array - sim0.u.x.array).max() <= 1e-12
+    # frictionless: the block keeps its speed
+    assert np.allclose(frictionless["mean_velocity"], 1.0, atol=1e-9)
+
+
+def test_sliding_block_decelerates_and_stops():
+    mu, v0 = 0.2, 1.0
+    h, _ = run_block(5.0, friction=mu, v0=v0)
+    t, velocity = h["t"], h["mean_velocity"]
+    sliding = (t > 0.5) & (t < 4.5)
+    deceleration = -np.polyfit(t[sliding], velocity[sliding], 1)[0]
+    assert deceleration == pytest.approx(mu * 1.0, rel=0.05)
+    # the stop: where the mean velocity first reaches zero
+    k = int(np.argmax(velocity <= 0.0))
+    assert k > 0
+    t_stop = t[k - 1] + (t[k] - t[k - 1]) * velocity[k - 1] / (velocity[k - 1] - velocity[k])
+    assert t_stop == pytest.approx(v0 / (mu * 1.0), rel=0.05)
+    # energy: the friction works against the motion at every step, and accounts for
+    # the loss of E_Theta to the solver's tolerance (hybrid scheme, Theta = 1)
+    assert h["friction_dissipation"][1:].min() > 0.0
+    assert np.abs(h["energy_balance_residual"]).max() < 1e-8 * h["energy"][0]
+    assert h["friction_dissipation"].sum() == pytest.approx(h["kinetic"][0], rel=1e-3)
+
+
+def test_block_sticks_below_the_friction_limit():
+    # tangential load 0.1 m g < mu_f m g: the block stays put (up to its elastic ringing)
+    stick, _ = run_block(2.0, friction=0.2, v0=0.0, slope=0.1)
+    # tangential load 0.3 m g > mu_f m g: it slides with acceleration (0.3 - 0.2) g
+    slide, _ = run_block(2.0, friction=0.2, v0=0.0, slope=0.3)
+    assert slide["mean_velocity"][-1] == pytest.approx(0.1 * 2.0, rel=0.05)
+    assert np.abs(stick["mean_velocity"]).max() < 0.01 * slide["mean_velocity"][-1]
+    assert np.abs(stick["energy_balance_residual"]).max() < 1e-8
+
+
+def test_friction_history_columns_and_fields(tmp_path):
+    problem = block_problem(friction=0.2, v0=1.0)
+    simulation = Simulation(problem, HybridScheme(), dt=DT, t_end=2 * DT)
+    simulation.run(out=str(tmp_path), columns=FRICTION_HISTORY_COLUMNS, output_every=1)
+    header = (tmp_path / "history.csv").read_text().splitlines()[0].split(",")
+    assert header == list(FRICTION_HISTORY_COLUMNS)
+    names = set(simulation.output_fields())
+    assert {"slip_velocity", "friction_traction"} <= names
+    slip, traction = (f.function for f in simulation._friction.fields)
+    # sliding to +x: slip along +x and a traction along -x of magnitude mu_f |sigma_n| ~ 0.2
+    bottom = np.flatnonzero(np.abs(slip.x.array.reshape(-1, 2)[:, 0]) > 0)
+    assert bottom.size > 0
+    assert np.all(slip.x.array.reshape(-1, 2)[bottom, 0] > 0.8)
+    assert np.all(traction.x.array.reshape(-1, 2)[bottom, 0] < 0)
+    mean_traction = traction.x.array.reshape(-1, 2)[bottom, 0].mean()
+    assert mean_traction == pytest.approx(-0.2, rel=0.25)
+
+
+@pytest.mark.mpi
+def test_friction_mpi_matches_serial():
+    parallel, _ = run_block(1.0, friction=0.2, v0=1.0)
+    serial, _ = run_block(1.0, friction=0.2, v0=1.0, comm=MPI.COMM_SELF)
+    for name in (*STATE_COLUMNS, "friction_dissipation", "mean_velocity"):
+        scale = max(1e-12, np.abs(serial[name]).max())
+        assert np.abs(parallel[name] - serial[name]).max() <= 1e-8 * scale, name
