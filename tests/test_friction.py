@@ -94,6 +94,9 @@ def test_friction_history_columns_and_fields(tmp_path):
 def test_friction_mpi_matches_serial():
     parallel, _ = run_block(1.0, friction=0.2, v0=1.0)
     serial, _ = run_block(1.0, friction=0.2, v0=1.0, comm=MPI.COMM_SELF)
+    # energies are parts of one budget: each is compared on the scale of the total energy
+    # (the elastic energy is 5e-5 of it, and its partition round-off is ~1e-11)
+    budget = ("energy", "energy_theta", "kinetic", "elastic", "potential")
     for name in (*STATE_COLUMNS, "friction_dissipation", "mean_velocity"):
-        scale = max(1e-12, np.abs(serial[name]).max())
-        assert np.abs(parallel[name] - serial[name]).max() <= 1e-8 * scale, name
+        scale = np.abs(serial["energy" if name in budget else name]).max()
+        assert np.abs(parallel[name] - serial[name]).max() <= 1e-8 * max(scale, 1e-12), name
