@@ -122,6 +122,8 @@ def impact_problem(
     geometry_order: int = 2,
     contact: bool = True,
     comm=MPI.COMM_WORLD,
+    friction: float | None = None,
+    tangential_velocity: float = 0.0,
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
 
@@ -130,6 +132,8 @@ def impact_problem(
     Dirichlet condition, Gamma_C the lower half of the boundary. It falls for
     t = sqrt(2 * 5 / 0.1) = 10 and hits the plane with speed 1. ``contact=False``
     leaves out the obstacle: plain linear elastodynamics on the same mesh.
+    ``friction`` (mu_f) adds Coulomb friction, and ``tangential_velocity`` an initial
+    velocity along x: the body is thrown obliquely.
     """
     from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
 
@@ -144,13 +148,16 @@ def impact_problem(
         degree=degree,
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,
+        friction=friction,
     )
     up = [0.0] * dim
     up[-1] = 1.0
     if contact:
         problem.add_obstacle(PlaneObstacle(point=[0.0] * dim, normal=up), contact_tag)
     problem.add_body_force([-0.1 * c for c in up])
-    problem.set_initial_conditions(displacement=[5.0 * c for c in up])
+    along = [0.0] * dim
+    along[0] = float(tangential_velocity)
+    problem.set_initial_conditions(displacement=[5.0 * c for c in up], velocity=along)
     return problem
 
 

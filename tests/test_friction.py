@@ -100,3 +100,37 @@ def test_friction_mpi_matches_serial():
     for name in (*STATE_COLUMNS, "friction_dissipation", "mean_velocity"):
         scale = np.abs(serial["energy" if name in budget else name]).max()
         assert np.abs(parallel[name] - serial[name]).max() <= 1e-8 * max(scale, 1e-12), name
+
+
+def test_friction_block_demo(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    import h5py
+
+    repo = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {**os.environ, "PYTHONPATH": repo + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    out = tmp_path / "block"
+    args = ["--t-end", "1", "--mu", "0.2", "--v0", "1", "--out", str(out), "--quiet"]
+    result = subprocess.run(
+        [sys.executable, os.path.join(repo, "demos", "friction_block_2d.py"), *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    header = (out / "history.csv").read_text().splitlines()[0].split(",")
+    assert {"friction_dissipation", "energy_balance_residual", "mean_velocity"} <= set(header)
+    with h5py.File(out / "solution.h5", "r") as h5:
+        fields = set(h5["Function"])
+    assert {"displacement", "velocity", "von_mises", "slip_velocity", "friction_traction"} <= fields
+    bad = subprocess.run(
+        [sys.executable, os.path.join(repo, "demos", "friction_block_2d.py"), "--mu", "-1"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+    )
+    assert bad.returncode == 2 and "-1" in bad.stderr and "Traceback" not in bad.stderr
