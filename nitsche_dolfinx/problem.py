@@ -581,9 +581,12 @@ class Simulation:
             raise ValueError("restart=True needs an output folder (out), or give the folder")
         if out is not None:
             ensure_directory(out, self.comm)
+        last_saved = None  # the checkpoint of the current step, if there is one
         if restart not in (None, False):
             source = checkpoints if restart is True else str(restart)
             saved = self.load_checkpoint(source, columns)
+            if source == checkpoints:
+                last_saved = saved
             if self.progress and self.comm.rank == 0:
                 print(f"restart: from {source}, step {saved.step}, t = {saved.t:.6g}", flush=True)
         else:
@@ -600,7 +603,6 @@ class Simulation:
             records.extend(history.previous_rows)
             if output_every > 0:
                 xdmf = self._solution_writer(out, restart is not None)
-        last_saved = None
         # failures are compared on a communicator of their own (see all_ranks_reach)
         errors = self.comm.Dup() if self.comm.size > 1 else None
         collective_exit = False
