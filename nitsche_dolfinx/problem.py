@@ -698,7 +698,12 @@ class Simulation:
         """What a checkpoint must share with the simulation that reloads it."""
         problem = self.problem
         V = problem.V
+        friction = getattr(problem, "friction", None)  # a number, a fem.Constant or None
+        friction = (
+            0.0 if friction is None else float(np.asarray(getattr(friction, "value", friction)))
+        )
         return {
+            "friction": friction,
             "dofs": int(V.dofmap.index_map.size_global * V.dofmap.index_map_bs),
             "dt": self.dt,
             "scheme": self.scheme.describe(),
