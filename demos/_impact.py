@@ -3,7 +3,8 @@
 ``demos/ball_3d.py`` and ``demos/disk_2d.py`` tell the story; this module holds
 the parts they have in common, so that each demo reads as set up, run, look:
 
-- the command line (the flags of SPEC section 6, plus the linear solver);
+- the command line (the flags of SPEC section 6, plus the linear solver and the
+  checkpoint flags ``--checkpoint-every`` and ``--restart``), checked before any computing;
 - the linear solvers: direct LU (MUMPS when PETSc has it), the same factorisation
   reused as a GMRES preconditioner, or CG/GMRES with algebraic multigrid (GAMG)
   and the rigid-body near-nullspace;
@@ -25,11 +26,15 @@ from mpi4py import MPI
 from nitsche_dolfinx import HISTORY_COLUMNS, Simulation, compat, make_scheme
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
+    add_run_arguments,
+    check_method_arguments,
+    check_output_folder,
     finite_float,
     one_line_errors,
     petsc_option,
 )
 from nitsche_dolfinx.cases import impact_problem
+from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE
 from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.solver import rigid_body_modes
 
@@ -88,6 +93,7 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         help="extra PETSc option of the step's solver, e.g. ksp_monitor or "
         "pc_gamg_threshold=0.02 (repeatable; wins over the --linear-solver settings)",
     )
+    add_run_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no line per time step")
     parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
     parser.add_argument(
@@ -97,6 +103,20 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         help="also run the other schemes of the talk's energy figure (into OUT/<scheme>)",
     )
     return parser
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """Check every flag, and that the output folder can be written, before any computing.
+
+    Raises:
+        ValueError: Naming the first bad value.
+    """
+    check_method_arguments(args)
+    if not args.mesh_size > 0:
+        raise ValueError(f"the mesh size must be positive, got --mesh-size {args.mesh_size:g}")
+    if args.output_every < 0:
+        raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
+    check_output_folder(args.out)
 
 
 # -- linear solvers --------------------------------------------------------------------
@@ -199,7 +219,9 @@ def run(
     """Run the impact with the scheme ``scheme_name``, writing ``out/history.csv``.
 
     ``compared`` runs take the parameters of the talk's figure (:data:`COMPARED_SCHEMES`)
-    instead of the scheme flags, and print no line per step.
+    instead of the scheme flags, and print no line per step. With ``--restart`` the
+    main run continues from ``out/checkpoint``, and a compared run too if it has one
+    (a run interrupted before it started it starts afresh).
 
     Returns:
         The history (a dict of column arrays) with the run's label, output folder,
@@ -209,7 +231,16 @@ def run(
     comm = simulation.comm
     comm.barrier()
     start = time.perf_counter()
-    records = simulation.run(out=out, output_every=output_every, callback=callback)
+    restart = args.restart and (
+        not compared or os.path.exists(os.path.join(out, "checkpoint", CHECKPOINT_FILE))
+    )
+    records = simulation.run(
+        out=out,
+        output_every=output_every,
+        callback=callback,
+        checkpoint_every=args.checkpoint_every,
+        restart=restart,
+    )
     seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     simulation.solver.destroy()  # collectively, rather than whenever the garbage collector runs
     V = simulation.problem.V
@@ -430,7 +461,7 @@ def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None
     fails, one line says so and the demo goes on.
     """
     if snapshot.grid is None:
-        print(f"no picture: the run ends before t = {snapshot.at:g}")
+        print(f"no picture: this run did not compute the time level t = {snapshot.at:g}")
         return
     with compat.own_symbols():
         try:
@@ -554,6 +585,7 @@ def main(dim: int, body: str, description: str, argv: list[str] | None = None) -
     schemes = [args.scheme] + compared_runs(args)
     snapshot = Snapshot(at=PICTURE_TIME)  # the time of the talk's picture
     with one_line_errors(parser):
+        check_arguments(args)
         results = [
             run(args, dim, args.scheme, args.out, output_every=args.output_every, callback=snapshot)
         ]

@@ -117,9 +117,17 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import cases
-from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    add_run_arguments,
+    check_method_arguments,
+    check_output_folder,
+    one_line_errors,
+    scheme_from_arguments,
+)
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
 from nitsche_dolfinx.cases import BAR_METHODS
+from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
 from nitsche_dolfinx.plotting import latex_number
 from nitsche_dolfinx.problem import MASS_MATRICES
@@ -152,6 +160,7 @@ def make_parser() -> argparse.ArgumentParser:
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
+    add_run_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     parser.add_argument(
         "--compare",
@@ -219,7 +228,15 @@ def run(args: argparse.Namespace, scheme_name: str, out: str, method: str) -> di
         The history as a dict of column arrays, with the run's ``label`` and ``out``.
     """
     sim = bar_simulation(args, scheme_name, method)
-    records = sim.run(out=out, columns=COLUMNS)
+    if method == "mixed":  # its own time loop, without checkpoints
+        records = sim.run(out=out, columns=COLUMNS)
+    else:
+        restart = args.restart and (
+            out == args.out or os.path.exists(os.path.join(out, "checkpoint", CHECKPOINT_FILE))
+        )
+        records = sim.run(
+            out=out, columns=COLUMNS, checkpoint_every=args.checkpoint_every, restart=restart
+        )
     history = {name: np.array([record[name] for record in records]) for name in COLUMNS}
     label = SCHEME_LABELS.get(scheme_name, sim.scheme.describe())
     mass = "" if args.mass == "consistent" else f", {args.mass} mass"
@@ -322,8 +339,24 @@ def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
 #
 # The main run uses the chosen scheme; unless it already is Crank-Nicolson,
 # a second run with Nitsche + Crank-Nicolson and the same parameters goes to
-# `OUT/cn` for the comparison. A bad parameter stops the demo with a one-line
-# message naming it.
+# `OUT/cn` for the comparison. Every flag is checked before anything is
+# computed: a bad one stops the demo with a one-line message naming it (exit
+# status 2). A Newton failure or SIGINT/SIGTERM stops it after the last complete
+# step with its state saved in `OUT/checkpoint` (`--checkpoint-every K` also
+# saves it every K steps); `--restart` continues from there.
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """Every flag in range and the output folder writable, before any computing."""
+    check_method_arguments(args)
+    if args.nx < 1:
+        raise ValueError(f"the bar needs at least one cell, got --nx {args.nx}")
+    if args.method == "mixed" and (args.checkpoint_every or args.restart):
+        raise ValueError(
+            "--method mixed has no checkpoints: --checkpoint-every and --restart "
+            "need --method nitsche or penalty"
+        )
+    check_output_folder(args.out)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -331,6 +364,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = make_parser()
     args = parser.parse_args(argv)
     with one_line_errors(parser):
+        check_arguments(args)
         results = [run(args, args.scheme, args.out, args.method)]
         if args.compare and (args.scheme, args.method) != ("cn", "nitsche"):
             results.append(run(args, "cn", os.path.join(args.out, "cn"), "nitsche"))

@@ -111,7 +111,10 @@ from _impact import main
 # callback keeps the fields at $t = 18$ for the picture. Unless `--no-compare`,
 # the other schemes of the energy figure run with the same parameters into
 # `OUT/<scheme>/history.csv`. A bad parameter, a Newton failure or a PETSc
-# error stops the demo with a one-line message.
+# error stops the demo with a one-line message. A Newton failure, SIGINT or
+# SIGTERM stops it after the last complete step, with the history and the
+# fields readable and that state saved in `OUT/checkpoint` (also every K steps
+# with `--checkpoint-every K`); `--restart` continues from it.
 
 if __name__ == "__main__":
     main(

@@ -1,12 +1,25 @@
-"""Command-line pieces shared by the demos: the method flags of SPEC section 6, and errors
-reported as one line.
+"""Command-line pieces shared by the demos and the ``nitsche-dolfinx`` command: the method
+flags of SPEC section 6, the checkpoint flags, early checks, and errors reported as one line.
 
 Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
 ``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--degree``, ``--dt``,
-``--t-end``); :func:`add_method_arguments` adds them with the demo's defaults and
-:func:`scheme_from_arguments` turns them into a scheme. :func:`one_line_errors`
-stops a demo whose parameter is out of range, whose Newton fails or whose PETSc
-options are wrong with one line on rank 0 and exit status 2, never a traceback.
+``--t-end``); :func:`add_method_arguments` adds them with the demo's defaults,
+:func:`check_method_arguments` checks them before anything is computed and
+:func:`scheme_from_arguments` turns them into a scheme. :func:`add_run_arguments`
+adds ``--checkpoint-every`` and ``--restart``.
+
+:func:`one_line_errors` stops a demo with one line naming the problem, never a
+traceback, and an exit status that says what happened:
+
+- 2: a bad parameter (out of range, a file that cannot be read or written, wrong
+  PETSc options), found before computing;
+- 1: the run failed (Newton did not converge; the last converged state is saved);
+- 130 or 143: the run was interrupted by SIGINT or SIGTERM (its state is saved).
+
+Under MPI, an error that every rank raises (as validation does) is printed once,
+by rank 0. An error raised on some ranks only would leave the others waiting
+forever in their next collective operation: the failing rank then prints it
+with its rank number and aborts the whole job (``MPI_Abort``).
 """
 
 from __future__ import annotations
@@ -14,16 +27,24 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+import traceback
 
 import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from .checkpoint import ERROR_AGREEMENT_SECONDS, RunInterrupted, all_ranks_reach
+from .output import ensure_directory
+from .problem import check_time_parameters
 from .schemes import SCHEMES, TimeScheme, make_scheme
 from .solver import SolverError
 
 __all__ = [
+    "ERROR_AGREEMENT_SECONDS",
     "add_method_arguments",
+    "add_run_arguments",
+    "check_method_arguments",
+    "check_output_folder",
     "finite_float",
     "one_line_errors",
     "petsc_option",
@@ -80,23 +101,111 @@ def add_method_arguments(
     parser.add_argument("--t-end", type=finite_float, default=t_end, help="final time T")
 
 
+def add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``--checkpoint-every K`` and ``--restart``."""
+    parser.add_argument(
+        "--checkpoint-every",
+        type=int,
+        default=0,
+        metavar="K",
+        help="save the state in OUT/checkpoint every K steps and at the end (0: only when "
+        "the run stops early, on a solver failure or SIGINT/SIGTERM)",
+    )
+    parser.add_argument(
+        "--restart",
+        action="store_true",
+        help="continue from the checkpoint in OUT/checkpoint: the history keeps its rows up "
+        "to it and goes on, the fields are appended to solution.xdmf",
+    )
+
+
 def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> TimeScheme:
     """The scheme ``name`` (``args.scheme`` by default) with the parameters of ``args``."""
     return make_scheme(name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
 
 
+def check_method_arguments(args: argparse.Namespace) -> None:
+    """Check the flags of :func:`add_method_arguments` (and of :func:`add_run_arguments`, if
+    present) before anything is computed, with the library's own checks and messages.
+
+    Raises:
+        ValueError: Naming the first flag out of range.
+    """
+    check_time_parameters(args.dt, args.t_end)
+    if not args.gamma0 > 0:
+        raise ValueError(
+            f"the Nitsche parameter gamma0 must be positive, got gamma0={args.gamma0!r}"
+        )
+    if args.degree not in (1, 2):
+        raise ValueError(f"degree must be 1 or 2, got degree={args.degree!r}")
+    scheme_from_arguments(args)  # theta, beta and gamma in their ranges
+    every = getattr(args, "checkpoint_every", 0)
+    if every < 0:
+        raise ValueError(f"--checkpoint-every must be >= 0, got {every}")
+
+
+def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
+    """Create the output folder and check that it can be written (before computing)."""
+    return ensure_directory(path, comm)
+
+
 @contextlib.contextmanager
-def one_line_errors(parser: argparse.ArgumentParser):
-    """Turn a bad parameter, a Newton failure or a PETSc error into one line and exit status 2."""
+def one_line_errors(parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_SECONDS):
+    """Report an error of the block as one line and exit (see the module docstring).
+
+    Args:
+        parser: The demo's parser (its ``prog`` starts the line), or the program name.
+        comm: The communicator of the run.
+        grace: Seconds a failing rank waits for the others to fail too before it
+            decides that the error is its own and aborts the job.
+    """
+    prog = parser if isinstance(parser, str) else parser.prog
+    # failures are compared on a communicator of their own, so that this never matches
+    # a collective operation that the other ranks are waiting in
+    errors = comm.Dup() if comm.size > 1 else None
     try:
         yield
-    except (ValueError, SolverError, PETSc.Error) as error:
-        if MPI.COMM_WORLD.rank == 0:
-            print(f"{parser.prog}: error: {_one_line(error)}", file=sys.stderr, flush=True)
-        sys.exit(2)
+    except SystemExit:
+        raise
+    except BaseException as error:  # noqa: BLE001 - every error ends the run, one way or another
+        status, message = _status_and_message(error)
+        if errors is None or all_ranks_reach(errors, grace):
+            if comm.rank == 0:
+                print(f"{prog}: error: {message}", file=sys.stderr, flush=True)
+            sys.exit(status)
+        print(
+            f"{prog}: error on rank {comm.rank} of {comm.size} (aborting all ranks): {message}",
+            file=sys.stderr,
+            flush=True,
+        )
+        comm.Abort(status)
+    if errors is not None:
+        errors.Free()
 
 
-def _one_line(error: Exception) -> str:
+#: Errors in the user's input or files: one line, exit status 2.
+_INPUT_ERRORS = (ValueError, PETSc.Error)
+
+
+def _status_and_message(error: BaseException) -> tuple[int, str]:
+    """The exit status and the line (with a traceback for an unexpected error) for ``error``."""
+    if isinstance(error, RunInterrupted):
+        return error.exit_status, _one_line(error) + " (continue with --restart)"
+    if isinstance(error, KeyboardInterrupt):
+        return 130, "interrupted (KeyboardInterrupt)"
+    if isinstance(error, SolverError):
+        saved = getattr(error, "checkpoint", None)
+        extra = f"; {saved} (continue with --restart)" if saved is not None else ""
+        return 1, _one_line(error) + extra
+    if isinstance(error, _INPUT_ERRORS):
+        return 2, _one_line(error)
+    if isinstance(error, OSError):
+        return 1, _one_line(error)
+    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+    return 1, f"unexpected {type(error).__name__}: {_one_line(error)}\n{text.rstrip()}"
+
+
+def _one_line(error: BaseException) -> str:
     """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
     if isinstance(error, PETSc.Error):
         lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]

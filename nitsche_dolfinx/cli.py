@@ -2,6 +2,10 @@
 
 A bad configuration stops the run before anything is computed, with one line
 on rank 0 that names the problem and a non-zero exit status, never a traceback.
+A solver failure, SIGINT or SIGTERM stops it after the last complete step with
+its state saved in ``OUT/checkpoint``; ``--restart`` continues from there. The
+exit statuses are those of :mod:`nitsche_dolfinx.arguments`: 2 for a bad
+configuration, 1 for a failed run, 130/143 for an interrupted one.
 """
 
 from __future__ import annotations
@@ -26,6 +30,19 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--check", action="store_true", help="validate the configuration and the mesh, then stop"
     )
+    run.add_argument(
+        "--checkpoint-every",
+        type=int,
+        default=None,
+        metavar="K",
+        help="save the state in OUT/checkpoint every K steps and at the end "
+        "(overrides [output] checkpoint_every; 0: only when the run stops early)",
+    )
+    run.add_argument(
+        "--restart",
+        action="store_true",
+        help="continue from the checkpoint in OUT/checkpoint",
+    )
     return parser
 
 
@@ -34,33 +51,34 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     from mpi4py import MPI
 
-    from .config import ConfigError, build_simulation, load_config
-    from .solver import SolverError
+    from .arguments import check_output_folder, one_line_errors
+    from .config import build_simulation, load_config
 
     comm = MPI.COMM_WORLD
-
-    def fail(message: str, status: int) -> int:
-        if comm.rank == 0:
-            print(f"nitsche-dolfinx: error: {message}", file=sys.stderr, flush=True)
-        return status
-
-    try:
+    with one_line_errors("nitsche-dolfinx", comm):
         config = load_config(args.config)
+        output = config.get("output", {})
+        out = args.out or output.get("dir") or os.path.join("out", "run")
+        every = args.checkpoint_every
+        if every is None:
+            every = output.get("checkpoint_every", 0)
+        if every < 0:
+            raise ValueError(f"--checkpoint-every must be >= 0, got {every}")
+        if not args.check:
+            check_output_folder(out, comm)
         simulation = build_simulation(
             config, comm=comm, progress=not args.quiet, source=args.config
         )
-    except ConfigError as error:
-        return fail(str(error), 2)
-    if args.check:
-        if comm.rank == 0:
-            print(f"{args.config}: valid")
-        return 0
-    output = config.get("output", {})
-    out = args.out or output.get("dir") or os.path.join("out", "run")
-    try:
-        simulation.run(out=out, output_every=output.get("every", 0))
-    except SolverError as error:
-        return fail(str(error), 1)
+        if args.check:
+            if comm.rank == 0:
+                print(f"{args.config}: valid")
+            return 0
+        simulation.run(
+            out=out,
+            output_every=output.get("every", 0),
+            checkpoint_every=every,
+            restart=args.restart,
+        )
     if comm.rank == 0 and not args.quiet:
         print(f"history: {os.path.join(out, 'history.csv')}")
     return 0

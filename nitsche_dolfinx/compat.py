@@ -272,9 +272,17 @@ def read_gmsh_file(filename: str, comm, rank: int, gdim: int):
     gmsh.initialize()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        error = None
         if comm.rank == rank:
             gmsh.model.add("nitsche_dolfinx_read")
-            gmsh.merge(str(filename))
+            try:
+                gmsh.merge(str(filename))
+            except Exception as exc:  # gmsh raises a bare Exception
+                error = str(exc) or type(exc).__name__
+        # a file that only rank ``rank`` reads fails on every rank, not just on that one
+        error = comm.bcast(error, root=rank)
+        if error is not None:
+            raise ValueError(error)
         return gmsh_model_to_mesh(gmsh.model, comm, rank, gdim)
     finally:
         gmsh.finalize()

@@ -36,10 +36,12 @@ Nitsche settings, the time scheme and the output::
     [output]
     dir = "out/ring"
     every = 10
+    checkpoint_every = 0            # save the state every K steps (0: only on a failure/stop)
 
 Everything is checked before anything is computed: an unknown key, a value of
 the wrong type or a missing required key raises :class:`ConfigError` with a
-message naming it.
+message naming it; :func:`build_simulation` checks the values (material,
+scheme, time step, Nitsche parameter, obstacles) before it reads the mesh.
 """
 
 from __future__ import annotations
@@ -88,7 +90,7 @@ SCHEMA: dict[str, Any] = {
     "traction": [{"tag": (int, True), "value": (_VECTOR, True)}],
     "body_force": {"value": (_VECTOR, True)},
     "initial": {"displacement": (_VECTOR, False), "velocity": (_VECTOR, False)},
-    "output": {"dir": (str, False), "every": (int, False)},
+    "output": {"dir": (str, False), "every": (int, False), "checkpoint_every": (int, False)},
     "petsc": None,  # free-form PETSc options
 }
 _REQUIRED_TABLES = ("mesh", "material", "scheme")
@@ -216,36 +218,55 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     from .material import Material
     from .meshes import load_mesh
     from .obstacles import PlaneObstacle
-    from .problem import ContactProblem, Simulation
+    from .problem import ContactProblem, Simulation, check_time_parameters
     from .schemes import make_scheme
 
     comm = comm or MPI.COMM_WORLD
-    where = "[mesh]"
+    where = "[material]"
     try:
-        mesh_table = config["mesh"]
-        mesh, facet_tags = load_mesh(mesh_table["file"], gdim=mesh_table.get("gdim"), comm=comm)
-        where = "[material]"
+        # the values first, the mesh last: a bad value stops the run before any reading
         m = config["material"]
         rho = m.get("rho", 1.0)
         if "E" in m:
             material = Material(E=m["E"], nu=m["nu"], rho=rho)
         else:
             material = Material.from_lame(m["lmbda"], m["mu"], rho=rho)
+        where = "[scheme]"
+        s = config["scheme"]
+        scheme = make_scheme(
+            s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
+        )
+        check_time_parameters(s["dt"], s["t_end"])
         where = "[nitsche]"
         nitsche = config.get("nitsche", {})
+        gamma0 = nitsche.get("gamma0", 1e-3)
+        if not gamma0 > 0:
+            raise ValueError(
+                f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}"
+            )
+        obstacles = []
+        for index, obstacle in enumerate(config.get("obstacle", [])):
+            where = f"[[obstacle]] #{index + 1}"
+            obstacles.append(PlaneObstacle(obstacle["point"], obstacle["normal"]))
+        where = "[output]"
+        every = config.get("output", {}).get("checkpoint_every", 0)
+        if every < 0:
+            raise ValueError(f"checkpoint_every must be >= 0, got {every}")
+        where = "[mesh]"
+        mesh_table = config["mesh"]
+        mesh, facet_tags = load_mesh(mesh_table["file"], gdim=mesh_table.get("gdim"), comm=comm)
+        where = "[nitsche]"
         problem = ContactProblem(
             mesh,
             facet_tags,
             material,
             degree=mesh_table.get("degree", 1),
-            gamma0=nitsche.get("gamma0", 1e-3),
+            gamma0=gamma0,
             nitsche_theta=nitsche.get("theta", 1.0),
         )
-        for index, obstacle in enumerate(config.get("obstacle", [])):
+        for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
             where = f"[[obstacle]] #{index + 1}"
-            problem.add_obstacle(
-                PlaneObstacle(obstacle["point"], obstacle["normal"]), obstacle["tag"]
-            )
+            problem.add_obstacle(obstacle, table["tag"])
         for index, dirichlet in enumerate(config.get("dirichlet", [])):
             where = f"[[dirichlet]] #{index + 1}"
             problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])
@@ -261,10 +282,6 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
             displacement=initial.get("displacement"), velocity=initial.get("velocity")
         )
         where = "[scheme]"
-        s = config["scheme"]
-        scheme = make_scheme(
-            s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
-        )
         return Simulation(
             problem,
             scheme,

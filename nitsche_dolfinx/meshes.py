@@ -156,7 +156,16 @@ def load_mesh(
 
 def _load_msh(path, gdim, comm):
     if gdim is None:
-        gdim = comm.bcast(_msh_dimension(path) if comm.rank == 0 else None, root=0)
+        found = None
+        if comm.rank == 0:
+            try:
+                found = _msh_dimension(path)
+            except Exception as error:  # gmsh raises a bare Exception
+                found = f"mesh file {path!r} cannot be read: {error}"
+        found = comm.bcast(found, root=0)  # an error on rank 0 stops every rank
+        if isinstance(found, str):
+            raise ValueError(found)
+        gdim = found
     mesh, _, facet_tags = compat.read_gmsh_file(path, comm, 0, gdim)
     if facet_tags is None:
         raise ValueError(f"mesh file {path!r} has no physical groups on its boundary")

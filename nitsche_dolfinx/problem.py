@@ -31,12 +31,23 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from . import compat
+from .checkpoint import (
+    CheckpointError,
+    RunInterrupted,
+    SavedState,
+    StopSignals,
+    agree,
+    all_ranks_reach,
+    match_points,
+    read_checkpoint,
+    write_checkpoint,
+)
 from .contact import NitscheContact, PenaltyContact, positive_part
 from .diagnostics import BoundaryField, Diagnostics, assemble_global
 from .mass import lumped_mass, redistributed_mass
 from .material import Material, sigma, von_mises
 from .meshes import cell_diameter
-from .output import HistoryWriter, SolutionWriter, ensure_directory
+from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
 
@@ -771,45 +782,134 @@ class Simulation:
         columns=HISTORY_COLUMNS,
         callback: Callable[[Simulation], None] | None = None,
         output_every: int = 0,
+        checkpoint_every: int = 0,
+        restart: str | bool | None = None,
     ) -> list[dict[str, float]]:
-        """Run to t_end.
+        """Run to t_end, or until a solver failure or a signal stops it cleanly.
 
         Args:
             out: Output folder for ``history.csv`` (and ``solution.xdmf`` when
-                ``output_every > 0``); nothing is written when omitted.
+                ``output_every > 0``, and the checkpoints in ``out/checkpoint``);
+                nothing is written when omitted.
             columns: History columns: names of :meth:`state` entries.
             callback: Called as ``callback(simulation)`` after every step.
             output_every: Write the XDMF fields every this many steps (0: never).
+            checkpoint_every: Write a checkpoint every this many steps and at the end
+                (0: only when the run stops early). Needs ``out``.
+            restart: Continue from a checkpoint: its folder, or True for
+                ``out/checkpoint``. The history keeps its rows up to the checkpoint
+                and continues; the XDMF series is appended to (see
+                :func:`~nitsche_dolfinx.output.continue_solution`).
 
         Returns:
-            The history, one dict of :meth:`state` values per time level.
+            The history, one dict of :meth:`state` values per time level (after a
+            restart, the rows kept from ``history.csv`` come first).
+
+        Raises:
+            SolverError: A step's Newton solve failed. The history and the fields stay
+                readable up to the last converged step, and that state is saved in
+                ``out/checkpoint`` (``error.checkpoint``, a
+                :class:`~nitsche_dolfinx.checkpoint.SavedState`).
+            RunInterrupted: SIGINT or SIGTERM arrived (on any rank): every rank stops
+                after the same step, which is saved the same way.
+            CheckpointError: The checkpoint to restart from is missing or does not fit.
         """
-        history, xdmf = None, None
+        columns = list(columns)
+        checkpoint_every = int(checkpoint_every)
+        if checkpoint_every < 0:
+            raise ValueError(f"checkpoint_every must be >= 0, got {checkpoint_every!r}")
+        if checkpoint_every and out is None:
+            raise ValueError("checkpoint_every needs an output folder (out)")
+        checkpoints = os.path.join(out, "checkpoint") if out is not None else None
+        if restart is True and checkpoints is None:
+            raise ValueError("restart=True needs an output folder (out), or give the folder")
         if out is not None:
             ensure_directory(out, self.comm)
-            history = HistoryWriter(os.path.join(out, "history.csv"), columns, self.comm)
-            if output_every > 0:
-                xdmf = SolutionWriter(
-                    os.path.join(out, "solution.xdmf"), self.problem.mesh, self.output_fields()
-                )
+        last_saved = None  # the checkpoint of the current step, if there is one
+        if restart not in (None, False):
+            source = checkpoints if restart is True else str(restart)
+            saved = self.load_checkpoint(source, columns)
+            if source == checkpoints:
+                last_saved = saved
+            if self.progress and self.comm.rank == 0:
+                print(f"restart: from {source}, step {saved.step}, t = {saved.t:.6g}", flush=True)
+        else:
+            restart = None
+        history, xdmf = None, None
         records = []
+        if out is not None:
+            history = HistoryWriter(
+                os.path.join(out, "history.csv"),
+                columns,
+                self.comm,
+                resume_at=self.t if restart is not None else None,
+            )
+            records.extend(history.previous_rows)
+            if output_every > 0:
+                xdmf = self._solution_writer(out, restart is not None)
+        # failures are compared on a communicator of their own (see all_ranks_reach)
+        errors = self.comm.Dup() if self.comm.size > 1 else None
+        collective_exit = False
         try:
-            self._record(records, history, xdmf, output_every)
-            while self.step_index < self.num_steps:
-                self.step()
-                self._record(records, history, xdmf, output_every)
-                if callback is not None:
-                    callback(self)
+            with StopSignals() as signals:
+                if restart is None or history is None:
+                    self._record(records, history, xdmf, output_every, write=restart is None)
+                while self.step_index < self.num_steps:
+                    try:
+                        self.step()
+                    except SolverError as error:
+                        error.checkpoint = self._save_on_stop(checkpoints, last_saved, columns)
+                        raise
+                    self._record(records, history, xdmf, output_every)
+                    if callback is not None:
+                        callback(self)
+                    if checkpoint_every and self.step_index % checkpoint_every == 0:
+                        last_saved = self.save_checkpoint(checkpoints, columns)
+                    number = signals.requested(self.comm)
+                    if number:
+                        saved = self._save_on_stop(checkpoints, last_saved, columns)
+                        raise RunInterrupted(number, self.step_index, self.t, saved)
+                if checkpoint_every and (last_saved is None or last_saved.step != self.step_index):
+                    self.save_checkpoint(checkpoints, columns)
+            collective_exit = True
+        except (SolverError, RunInterrupted, CheckpointError):
+            collective_exit = True  # raised on every rank alike
+            raise
+        except BaseException:
+            # closing the XDMF file is collective: if the other ranks did not fail, they
+            # wait elsewhere, and the file is left to the end of the process
+            collective_exit = errors is None or all_ranks_reach(errors)
+            raise
         finally:
             if history is not None:
                 history.close()
-            if xdmf is not None:
-                xdmf.close()
+            if collective_exit:
+                if xdmf is not None:
+                    xdmf.close()
+                if errors is not None:
+                    errors.Free()
         return records
 
-    def _record(self, records, history, xdmf, output_every) -> None:
+    def _solution_writer(self, out: str, restarted: bool) -> SolutionWriter:
+        path = os.path.join(out, "solution.xdmf")
+        append = False
+        if restarted:
+            path, append = continue_solution(path, self.t, self.step_index, self.comm)
+            if not append and os.path.basename(path) != "solution.xdmf" and self.progress:
+                if self.comm.rank == 0:
+                    print(
+                        f"restart: solution.xdmf holds fields after t = {self.t:.6g} (or "
+                        f"cannot be read); the fields from step {self.step_index} on go to "
+                        f"{path}",
+                        flush=True,
+                    )
+        return SolutionWriter(path, self.problem.mesh, self.output_fields(), append=append)
+
+    def _record(self, records, history, xdmf, output_every, write: bool = True) -> None:
         values = self.state()
         records.append(values)
+        if not write:  # the restarted time level: already in the files
+            return
         if history is not None:
             history.write(values)
         if xdmf is not None and self.step_index % output_every == 0:
@@ -821,3 +921,124 @@ class Simulation:
                 f"  contact force = {values['contact_force']:.4e}",
                 flush=True,
             )
+
+    # -- checkpoints ---------------------------------------------------------------------
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """The Functions a checkpoint holds, by name: everything the next step depends on."""
+        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+
+    def _checkpoint_description(self) -> dict:
+        """What a checkpoint must share with the simulation that reloads it."""
+        problem = self.problem
+        V = problem.V
+        friction = getattr(problem, "friction", None)  # a number, a fem.Constant or None
+        friction = (
+            0.0 if friction is None else float(np.asarray(getattr(friction, "value", friction)))
+        )
+        return {
+            "friction": friction,
+            "dofs": int(V.dofmap.index_map.size_global * V.dofmap.index_map_bs),
+            "dt": self.dt,
+            "scheme": self.scheme.describe(),
+            "method": problem.method,
+            "mass": problem.mass,
+            "degree": problem.degree,
+            "gamma0": float(np.asarray(problem.gamma0.value)),
+            "nitsche_theta": float(np.asarray(problem.nitsche_theta.value)),
+            "functions": sorted(self.checkpoint_functions()),
+        }
+
+    def save_checkpoint(self, folder: str, columns=None) -> SavedState:
+        """Save the current time level in the checkpoint folder ``folder`` (collective).
+
+        Args:
+            folder: The folder; it keeps only the latest checkpoint.
+            columns: The history columns of the run, recorded so that a restart
+                writing other columns is refused.
+
+        Returns:
+            The :class:`~nitsche_dolfinx.checkpoint.SavedState`.
+        """
+        V = self.problem.V
+        owned = V.dofmap.index_map.size_local
+        bs = V.dofmap.index_map_bs
+        arrays = {
+            name: f.x.array.reshape(-1, bs)[:owned]
+            for name, f in self.checkpoint_functions().items()
+        }
+        arrays["points"] = self._node_coordinates()[:owned]
+        metadata = {
+            **self._checkpoint_description(),
+            "newton_iterations": int(self.newton_iterations),
+            "columns": list(columns) if columns is not None else None,
+        }
+        return write_checkpoint(folder, self.comm, self.step_index, self.t, arrays, metadata)
+
+    def load_checkpoint(self, folder: str, columns=None) -> SavedState:
+        """Restore the time level saved in ``folder`` by :meth:`save_checkpoint` (collective).
+
+        The values are matched to the dofs by the coordinates of their nodes, so any
+        partition of the same mesh, on any number of ranks, reloads them.
+
+        Raises:
+            CheckpointError: On every rank, if the checkpoint is missing or unreadable, or
+                was written for another mesh, space, scheme, time step, Nitsche parameters
+                or set of history columns, or lies past t_end.
+        """
+        metadata, arrays = read_checkpoint(folder, self.comm)
+        expected = self._checkpoint_description()
+        for key, value in expected.items():
+            if metadata.get(key) != value:
+                raise CheckpointError(
+                    f"checkpoint {folder!r} does not fit this run: its {key} is "
+                    f"{metadata.get(key)!r}, this run's is {value!r}"
+                )
+        saved_columns = metadata.get("columns")
+        if columns is not None and saved_columns is not None and saved_columns != list(columns):
+            raise CheckpointError(
+                f"checkpoint {folder!r} was written by a run with the history columns "
+                f"{','.join(saved_columns)}, this run writes {','.join(columns)}"
+            )
+        if metadata["step"] > self.num_steps:
+            raise CheckpointError(
+                f"checkpoint {folder!r} is at t = {metadata['t']:.6g}, past t_end = {self.t_end:g}"
+            )
+        points = self._node_coordinates()
+        extent = self.comm.allreduce(float(np.abs(points).max(initial=0.0)), op=MPI.MAX)
+        index = match_points(arrays["points"], points, 1e-8 * max(extent, 1.0))
+        missing = int(np.count_nonzero(index < 0))
+        agree(
+            self.comm,
+            f"checkpoint {folder!r} does not fit this run: {missing} of its nodes are not "
+            "nodes of this mesh (another mesh?)"
+            if missing
+            else None,
+        )
+        bs = self.problem.V.dofmap.index_map_bs
+        for name, function in self.checkpoint_functions().items():
+            function.x.array.reshape(-1, bs)[:] = arrays[name][index]
+        self.t = float(metadata["t"])
+        self.step_index = int(metadata["step"])
+        self.newton_iterations = int(metadata.get("newton_iterations", 0))
+        self.step_seconds = 0.0
+        self.problem.set_time(self.t)
+        return SavedState(str(folder), self.step_index, self.t)
+
+    def _node_coordinates(self) -> np.ndarray:
+        """The coordinates of the nodes of the displacement space, one row per block of its
+        dof array (owned, then ghosts): x interpolated into it, which works for every space
+        on every dolfinx (``tabulate_dof_coordinates`` refuses 1D vector spaces in 0.5)."""
+        V, gdim = self.problem.V, self.problem.gdim
+        x = fem.Function(V)
+        x.interpolate(lambda points: points[:gdim])
+        x.x.scatter_forward()
+        return x.x.array.reshape(-1, V.dofmap.index_map_bs).copy()
+
+    def _save_on_stop(self, folder, last_saved, columns) -> SavedState | None:
+        """The checkpoint of the last completed step when a run stops early, if it has a place."""
+        if folder is None:
+            return None
+        if last_saved is not None and last_saved.step == self.step_index:
+            return last_saved
+        return self.save_checkpoint(folder, columns)

@@ -1,0 +1,338 @@
+"""Surviving a run: checkpoints, restarts, and clean stops on SIGINT or SIGTERM.
+
+A checkpoint is a folder (``OUT/checkpoint`` for :meth:`Simulation.run
+<nitsche_dolfinx.problem.Simulation.run>`) holding
+
+- ``state-<step>.rank<r>.npz``, one per rank: the coordinates of the nodes the
+  rank owns and the values of the displacement, velocity and acceleration there;
+- ``checkpoint.json``, written by rank 0 once every rank has written its file:
+  the step, t, the number of ranks and dofs, dt, the scheme, the Nitsche
+  parameters and the history columns of the run.
+
+Every file is written under a temporary name and renamed, and the previous
+state's files are removed only after ``checkpoint.json`` names the new ones,
+so an interruption at any moment leaves the last complete checkpoint
+readable.
+
+The values are found again by the coordinates of their nodes (:func:`match_points`),
+not by their place in the arrays: the partition of a mesh among the ranks is not
+the same from one ``mpirun`` to the next (measured with dolfinx 0.5 on the disk),
+so a checkpoint reloads on any partition of the same mesh, and on any number
+of ranks. Every rank reads all the files (fine for the meshes of this project;
+the memory of one rank bounds the size). Another mesh, space, scheme, time step
+or Nitsche parameter is refused with a message naming the difference.
+
+While a run is going on, :class:`StopSignals` turns SIGINT and SIGTERM into a
+request to stop that the ranks agree on at the end of the step (an
+``allreduce``), so that all of them stop after the same step, write a
+checkpoint and raise :class:`RunInterrupted`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+
+__all__ = [
+    "CHECKPOINT_FILE",
+    "ERROR_AGREEMENT_SECONDS",
+    "CheckpointError",
+    "RunInterrupted",
+    "SavedState",
+    "StopSignals",
+    "agree",
+    "all_ranks_reach",
+    "match_points",
+    "read_checkpoint",
+    "write_checkpoint",
+]
+
+#: The metadata file of a checkpoint folder; its presence makes the folder a checkpoint.
+CHECKPOINT_FILE = "checkpoint.json"
+#: How long a failing rank waits for the other ranks to fail too (see :func:`all_ranks_reach`).
+ERROR_AGREEMENT_SECONDS = 10.0
+_FORMAT = "nitsche-dolfinx checkpoint"
+_VERSION = 1
+
+
+class CheckpointError(ValueError):
+    """A checkpoint cannot be written, read, or does not fit the simulation."""
+
+
+@dataclass(frozen=True)
+class SavedState:
+    """Where and which state a checkpoint holds."""
+
+    folder: str
+    step: int
+    t: float
+
+    def __str__(self) -> str:
+        return f"the state at step {self.step} (t = {self.t:.6g}) is saved in {self.folder}"
+
+
+class RunInterrupted(RuntimeError):
+    """The run stopped cleanly on SIGINT or SIGTERM after a complete step.
+
+    Attributes:
+        signal_number: The signal (the largest one if ranks received different ones).
+        step, t: The last completed step and its time.
+        checkpoint: The :class:`SavedState`, or None if the run had nowhere to write one.
+        exit_status: 128 + the signal number (130 for SIGINT, 143 for SIGTERM).
+    """
+
+    def __init__(self, signal_number: int, step: int, t: float, checkpoint=None):
+        self.signal_number = int(signal_number)
+        self.step, self.t = step, t
+        self.checkpoint = checkpoint
+        self.exit_status = 128 + self.signal_number
+        name = _signal_name(self.signal_number)
+        message = f"interrupted by {name} after step {step} (t = {t:.6g})"
+        if checkpoint is not None:
+            message += f"; {checkpoint}"
+        super().__init__(message)
+
+
+def _signal_name(number: int) -> str:
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
+# -- agreeing on errors ----------------------------------------------------------------
+
+
+def agree(comm, error: str | None, kind=CheckpointError) -> None:
+    """Raise ``kind`` on every rank if any rank has an ``error`` (the lowest rank's message).
+
+    Collective: every rank calls it, so a failure on one rank (a file it cannot
+    write) stops all of them at the same place instead of leaving the others waiting.
+    """
+    errors = comm.allgather(error) if comm.size > 1 else [error]
+    for rank, message in enumerate(errors):
+        if message is not None:
+            where = f" (rank {rank})" if comm.size > 1 and errors.count(message) < comm.size else ""
+            raise kind(f"{message}{where}")
+
+
+def all_ranks_reach(comm, grace: float = ERROR_AGREEMENT_SECONDS) -> bool:
+    """Whether every rank of ``comm`` calls this within ``grace`` seconds of each other.
+
+    A rank that fails calls it to learn whether the failure is collective (every rank
+    raised the same error, as validation does) or its own (the others are waiting in
+    some collective operation, and will wait forever). ``comm`` must be a communicator
+    used for nothing else (a ``Dup``), so that this never matches another operation.
+    """
+    if comm.size == 1:
+        return True
+    request = comm.Ibarrier()
+    deadline = time.monotonic() + grace
+    while not request.Test():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+# -- writing and reading -----------------------------------------------------------------
+
+
+def _rank_file(state: str, rank: int) -> str:
+    return f"{state}.rank{rank:04d}.npz"
+
+
+def _write_atomically(path: str, write) -> None:
+    """``write(file)`` into ``path`` through a temporary name, synced, then renamed."""
+    temporary = f"{path}.tmp"
+    with open(temporary, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(temporary, path)
+
+
+def write_checkpoint(
+    folder: str, comm, step: int, t: float, arrays: dict[str, np.ndarray], metadata: dict
+) -> SavedState:
+    """Write one checkpoint: each rank its ``arrays``, then rank 0 the metadata (collective).
+
+    Args:
+        folder: The checkpoint folder (created if needed).
+        comm: The communicator of the simulation.
+        step, t: The time level saved.
+        arrays: This rank's arrays, by name.
+        metadata: What a restart must match (JSON-serialisable), stored with step and t.
+
+    Returns:
+        The saved state.
+
+    Raises:
+        CheckpointError: On every rank, if any rank could not write.
+    """
+    folder = str(folder)
+    error = None
+    if comm.rank == 0:
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as exc:
+            error = f"checkpoint folder {folder!r} cannot be created: {exc.strerror or exc}"
+    agree(comm, comm.bcast(error, root=0))
+    state = f"state-{step:08d}"
+    path = os.path.join(folder, _rank_file(state, comm.rank))
+    error = None
+    try:
+        _write_atomically(path, lambda f: np.savez(f, **arrays))
+    except OSError as exc:
+        error = f"checkpoint file {path!r} cannot be written: {exc.strerror or exc}"
+    agree(comm, error)  # every rank's file is complete before the metadata names it
+    previous = None
+    if comm.rank == 0:
+        meta_path = os.path.join(folder, CHECKPOINT_FILE)
+        previous = _read_metadata(meta_path, missing_ok=True)
+        content = {
+            "format": _FORMAT,
+            "version": _VERSION,
+            "state": state,
+            "step": int(step),
+            "t": float(t),
+            "ranks": comm.size,
+            **metadata,
+        }
+        try:
+            text = json.dumps(content, indent=1).encode()
+            _write_atomically(meta_path, lambda f: f.write(text))
+        except (OSError, TypeError) as exc:
+            error = f"checkpoint metadata {meta_path!r} cannot be written: {exc}"
+    agree(comm, comm.bcast(error, root=0))
+    previous = comm.bcast(previous.get("state") if isinstance(previous, dict) else None, root=0)
+    if previous is not None and previous != state:  # the new state is named: drop the old one
+        old = os.path.join(folder, _rank_file(previous, comm.rank))
+        if os.path.exists(old):
+            os.remove(old)
+    return SavedState(folder, int(step), float(t))
+
+
+def _read_metadata(path: str, missing_ok: bool = False):
+    """The metadata dict, None if missing and ``missing_ok``, else an error message string."""
+    if not os.path.isfile(path):
+        folder = os.path.dirname(path)
+        return None if missing_ok else f"no checkpoint in {folder!r} ({CHECKPOINT_FILE} is missing)"
+    try:
+        with open(path) as f:
+            content = json.load(f)
+    except (OSError, ValueError) as exc:
+        return f"checkpoint metadata {path!r} cannot be read: {exc}"
+    if not isinstance(content, dict) or content.get("format") != _FORMAT:
+        return f"{path!r} is not a nitsche-dolfinx checkpoint"
+    if content.get("version") != _VERSION:
+        return f"{path!r} has checkpoint version {content.get('version')!r}, expected {_VERSION}"
+    return content
+
+
+def read_checkpoint(folder: str, comm) -> tuple[dict, dict[str, np.ndarray]]:
+    """Read a checkpoint: its metadata and the arrays of all the ranks that wrote it (collective).
+
+    Returns:
+        The metadata and the arrays, each the concatenation of every writing rank's
+        array (in rank order), identical on every rank.
+
+    Raises:
+        CheckpointError: On every rank, naming what is missing or unreadable.
+    """
+    folder = str(folder)
+    content = None
+    if comm.rank == 0:
+        content = _read_metadata(os.path.join(folder, CHECKPOINT_FILE))
+    content = comm.bcast(content, root=0)
+    agree(comm, content if isinstance(content, str) else None)
+    parts, error = [], None
+    for rank in range(int(content["ranks"])):
+        path = os.path.join(folder, _rank_file(content["state"], rank))
+        try:
+            with np.load(path) as data:
+                parts.append({name: data[name] for name in data.files})
+        except (OSError, ValueError) as exc:
+            error = f"checkpoint file {path!r} cannot be read: {exc}"
+            break
+    agree(comm, error)
+    names = parts[0].keys() if parts else ()
+    return content, {name: np.concatenate([part[name] for part in parts]) for name in names}
+
+
+def match_points(saved: np.ndarray, points: np.ndarray, tolerance: float) -> np.ndarray:
+    """For each row of ``points``, the index of the row of ``saved`` within ``tolerance``
+    (max norm), or -1.
+
+    The rows are snapped to a grid of spacing ``tolerance`` and compared by cell; a
+    pair that a cell boundary separates is found on a second grid shifted by half a
+    cell. The same node computed from two cells differs by round-off only, and two
+    nodes of a mesh are far more than ``tolerance`` apart.
+    """
+    saved = np.asarray(saved, dtype=float).reshape(len(saved), -1)
+    points = np.asarray(points, dtype=float).reshape(len(points), -1)
+    index = np.full(len(points), -1, dtype=np.int64)
+    for shift in (0.0, 0.5):
+        todo = np.flatnonzero(index < 0)
+        if todo.size == 0 or len(saved) == 0:
+            break
+        keys = np.floor(np.concatenate([saved, points[todo]]) / tolerance + shift)
+        _, inverse = np.unique(keys.astype(np.int64), axis=0, return_inverse=True)
+        inverse = np.asarray(inverse).reshape(-1)
+        owner = np.full(inverse.max() + 1, -1, dtype=np.int64)
+        owner[inverse[: len(saved)]] = np.arange(len(saved))
+        index[todo] = owner[inverse[len(saved) :]]
+    found = index >= 0
+    distance = np.abs(saved[index[found]] - points[found]).max(axis=1, initial=0.0)
+    index[np.flatnonzero(found)[distance > tolerance]] = -1
+    return index
+
+
+# -- signals ---------------------------------------------------------------------------
+
+
+class StopSignals:
+    """While active (a ``with`` block), SIGINT and SIGTERM ask the run to stop.
+
+    The handler only records the signal; :meth:`requested` is called between
+    steps, on every rank, and returns the same answer everywhere. A second
+    SIGINT while a stop is pending raises KeyboardInterrupt at once. The
+    previous handlers are restored on leaving the block. Outside the main
+    thread (where Python cannot install handlers) nothing is installed.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.received = 0
+        self._previous = {}
+
+    def __enter__(self) -> StopSignals:
+        if threading.current_thread() is threading.main_thread():
+            for number in self.SIGNALS:
+                self._previous[number] = signal.signal(number, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for number, handler in self._previous.items():
+            # None: a handler installed from C (not by Python), which cannot be put back
+            signal.signal(number, signal.SIG_DFL if handler is None else handler)
+        self._previous.clear()
+
+    def _handle(self, number, frame) -> None:
+        if self.received and number == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.received = self.received or number
+
+    def requested(self, comm) -> int:
+        """The signal received by any rank (0 if none); collective."""
+        if comm.size == 1:
+            return self.received
+        return comm.allreduce(self.received, op=MPI.MAX)
