@@ -326,7 +326,11 @@ class SNESSolver:
                 A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
                 A.assemble()
             if self._split is not None:
-                self._split.facet_jacobian_changed()  # remember the facet part
+                # remember the facet part, and give A the values of every later update
+                # (K_bc + B, summed in that order): a run restarted from a checkpoint
+                # then factorises bit for bit the matrices of the uninterrupted run
+                self._split.facet_jacobian_changed()
+                self._split.sum_into(A)
         elif self._split.facet_jacobian_changed():
             self._split.sum_into(A)
         else:
