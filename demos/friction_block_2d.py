@@ -54,7 +54,6 @@ import os
 import sys
 
 import numpy as np
-from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx.arguments import (
@@ -63,8 +62,7 @@ from nitsche_dolfinx.arguments import (
     one_line_errors,
     scheme_from_arguments,
 )
-from nitsche_dolfinx.cases import block_problem
-from nitsche_dolfinx.diagnostics import assemble_global
+from nitsche_dolfinx.cases import add_block_probes, block_problem
 from nitsche_dolfinx.output import ensure_directory
 from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, Simulation
 
@@ -116,11 +114,7 @@ def run(args) -> list[dict]:
         t_end=args.t_end,
         progress=not args.quiet,
     )
-    comm = problem.mesh.comm
-    rho = problem.material.rho
-    momentum = fem.form(rho * simulation.v[0] * problem.dx)
-    mass = assemble_global(fem.form(rho * fem.Constant(problem.mesh, 1.0) * problem.dx), comm)
-    simulation.add_probe("mean_velocity", lambda: assemble_global(momentum, comm) / mass)
+    add_block_probes(simulation)
     return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)
 
 

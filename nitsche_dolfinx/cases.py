@@ -17,6 +17,7 @@ __all__ = [
     "add_bar_probes",
     "bar_problem",
     "bar_simulation",
+    "add_block_probes",
     "block_problem",
     "impact_problem",
 ]
@@ -213,3 +214,11 @@ def block_problem(
         velocity=[v0, 0.0],
     )
     return problem
+
+
+def add_block_probes(simulation) -> None:
+    """History column ``mean_velocity``: the block's mean velocity along the plane (its
+    momentum over its mass, the density being uniform)."""
+    problem = simulation.problem
+    mean = BoundaryAverage(problem.mesh, simulation.v[0], problem.dx)
+    simulation.add_probe("mean_velocity", mean)

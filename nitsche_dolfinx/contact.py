@@ -223,22 +223,23 @@ class NitscheContact:
     def hybrid_residual(self, u_old, u_new, v, dt=None, stick=False):
         """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi; with
         friction, the slip velocity (u_new - u_old) / dt and the threshold mu_f Phi."""
-        u_mid = (u_old + u_new) / 2
-        force = self.hybrid_force(u_old, u_new)
+        u_mid, velocity, force = self.hybrid_state(u_old, u_new, dt)
         form = self.consistency_term(u_mid, v) + self.contact_term(force, v)
         if self.frictional:
-            if dt is None:
-                raise ValueError("the hybrid scheme's friction term needs the time step dt")
             form = form + self.tangential_consistency_term(u_mid, v)
-            form = form + self.friction_term(u_mid, (u_new - u_old) / dt, force, v, stick)
+            form = form + self.friction_term(u_mid, self._velocity(velocity), force, v, stick)
         return form
 
-    def hybrid_force(self, u_old, u_new):
-        """Phi(u^n, u^{n+1}), the hybrid scheme's normal force per quadrature point."""
+    def hybrid_state(self, u_old, u_new, dt=None):
+        """What the hybrid scheme's contact terms see: the midpoint u^{n+1/2}, the slip
+        velocity (u_new - u_old) / dt (None without dt), and the normal force
+        Phi(u^n, u^{n+1}) per quadrature point."""
         u_mid = (u_old + u_new) / 2
-        return hybrid_contact_force(
+        velocity = None if dt is None else (u_new - u_old) / dt
+        force = hybrid_contact_force(
             self.projection(u_old), self.projection(u_mid), self.projection(u_new)
         )
+        return u_mid, velocity, force
 
     @staticmethod
     def _velocity(velocity):

@@ -27,7 +27,8 @@ def assemble_global(form, comm) -> float:
 
 
 class BoundaryAverage:
-    """Mean value of a scalar expression over a tagged boundary part.
+    """Mean value of a scalar expression over a tagged boundary part (or over any
+    measure: with ``dx``, the mean over the body).
 
     On a 1D mesh, where a boundary part is one point, this is the point value:
     the bar demo reads u(t, 0) and lambda_h(t, 0) this way.

@@ -166,10 +166,7 @@ class _FrictionTerms:
         return sum(forms, 0)
 
     def hybrid_operator(self, u_old, u_new, v, dt=None):
-        u_mid, velocity = (u_old + u_new) / 2, (u_new - u_old) / dt
-        forms = (
-            self.term(c, u_mid, velocity, c.hybrid_force(u_old, u_new), v) for c in self.contacts
-        )
+        forms = (self.term(c, *c.hybrid_state(u_old, u_new, dt), v) for c in self.contacts)
         return sum(forms, 0)
 
 
@@ -681,8 +678,6 @@ class Simulation:
             if self._energy_before is None
             else values["energy_theta"] - self._energy_before + self.friction_dissipation
         )
-        if self._friction is not None:
-            self._friction.update_fields()
         values["newton_iterations"] = self.newton_iterations
         values["step_seconds"] = self.step_seconds
         for name, probe in self._probes.items():
@@ -913,6 +908,8 @@ class Simulation:
         if history is not None:
             history.write(values)
         if xdmf is not None and self.step_index % output_every == 0:
+            if self._friction is not None:  # boundary projections: only when written
+                self._friction.update_fields()
             xdmf.write(self.t)
         if self.progress and self.comm.rank == 0:
             print(

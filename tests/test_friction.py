@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dolfinx import fem
 from mpi4py import MPI
 
-from nitsche_dolfinx.cases import block_problem
-from nitsche_dolfinx.diagnostics import assemble_global
+from nitsche_dolfinx.cases import add_block_probes, block_problem
 from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS, Simulation
 from nitsche_dolfinx.schemes import HybridScheme, make_scheme
 
@@ -21,10 +19,7 @@ def run_block(t_end, scheme=None, petsc_options=None, comm=MPI.COMM_WORLD, **kwa
     simulation = Simulation(
         problem, scheme or HybridScheme(), dt=DT, t_end=t_end, petsc_options=petsc_options
     )
-    rho = problem.material.rho
-    momentum = fem.form(rho * simulation.v[0] * problem.dx)
-    mass = assemble_global(fem.form(rho * fem.Constant(problem.mesh, 1.0) * problem.dx), comm)
-    simulation.add_probe("mean_velocity", lambda: assemble_global(momentum, comm) / mass)
+    add_block_probes(simulation)
     history = simulation.run()
     return {name: np.array([row[name] for row in history]) for name in history[0]}, simulation
 
