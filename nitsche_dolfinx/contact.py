@@ -29,7 +29,8 @@ from .material import sigma_n, sigma_t
 __all__ = [
     "NitscheContact",
     "ball_projection",
-    "stick_projection",
+    "guard_activity",
+    "guarded_projection",
     "PenaltyContact",
     "heaviside",
     "hybrid_contact_force",
@@ -63,9 +64,40 @@ def ball_projection(x, radius):
     return ufl.conditional(ufl.gt(radius, 0), inside, 0) * x
 
 
-def stick_projection(x, radius):
-    """The stick branch of [x]_r: x where r > 0, 0 where r = 0 (the stick predictor)."""
-    return ufl.conditional(ufl.gt(radius, 0), 1, 0) * x
+def guarded_projection(x, radius, reference, reference_radius):
+    """[x]_r guarded by a reference state (x_ref, r_ref) of the same point, for Newton.
+
+    - Where the reference sticks (|x_ref| <= r_ref): the stick branch, x (0 where r = 0).
+    - Where it slips along d = x_ref and x points ahead (x . d >= 0): [x]_r.
+    - Where x points behind d (x . d < 0): the component of x along d takes the stick
+      branch and the rest is projected onto the ball, ``[x - x_d]_r + x_d`` with
+      ``x_d = (x . d / |d|^2) d``; this equals [x]_r on the plane x . d = 0.
+
+    In 1D tangent (2D problems) a slipping reference gives ``min(x, r)`` for d > 0:
+    monotone with two affine pieces, so semismooth Newton cannot cycle from one slip
+    direction to the other across the thin stick band. The guarded law agrees with
+    Coulomb's [x]_r wherever |x| <= r (stick) and wherever the slip keeps the reference's
+    status and direction; :class:`~nitsche_dolfinx.problem.Simulation` checks the true
+    residual at the guarded solution and moves the reference to it until they agree.
+    """
+    switch = ufl.conditional(ufl.gt(radius, 0), 1, 0)
+    along = ufl.dot(x, reference)
+    d2 = ufl.dot(reference, reference)
+    x_d = along / ufl.conditional(ufl.gt(d2, 0), d2, 1) * reference
+    behind = ball_projection(x - x_d, radius) + switch * x_d
+    slipping = ufl.conditional(ufl.lt(along, 0), behind, ball_projection(x, radius))
+    return ufl.conditional(ufl.le(d2, reference_radius**2), switch * x, slipping)
+
+
+def guard_activity(x, radius, reference, reference_radius):
+    """1 where :func:`guarded_projection` differs from [x]_r, else 0: outside the ball
+    (|x| > r > 0) where the reference sticks or x points behind its slip direction."""
+    outside = ufl.And(ufl.gt(radius, 0), ufl.gt(ufl.dot(x, x), radius**2))
+    guarded = ufl.Or(
+        ufl.le(ufl.dot(reference, reference), reference_radius**2),
+        ufl.lt(ufl.dot(x, reference), 0),
+    )
+    return ufl.conditional(ufl.And(outside, guarded), 1, 0)
 
 
 def nitsche_projection(u_n, gap, sigma_n_u, gamma_h):
@@ -167,13 +199,23 @@ class NitscheContact:
         """1 where the tangential terms are on (mu_f > 0), else 0."""
         return ufl.conditional(ufl.gt(self.friction, 0), 1, 0)
 
-    def friction_traction(self, u, velocity, normal_force, stick=False):
+    def friction_traction(self, u, velocity, normal_force, reference=None):
         """lambda_t = -(1/gamma_h) [P_t(u)]_{mu_f normal_force}, where normal_force is
-        [P_gamma(u)]_+ (or the hybrid scheme's Phi); with ``stick``, the stick branch
-        -(1/gamma_h) P_t(u) wherever mu_f normal_force > 0."""
+        [P_gamma(u)]_+ (or the hybrid scheme's Phi). With ``reference``, a map from an
+        expression of the unknown to its value at a reference state, the projection is
+        guarded by that state's P_t and radius (:func:`guarded_projection`)."""
         radius = self.friction * normal_force
-        projection = stick_projection if stick else ball_projection
-        return -projection(self.tangential_projection(u, velocity), radius) / self.gamma_h
+        x = self.tangential_projection(u, velocity)
+        if reference is None:
+            return -ball_projection(x, radius) / self.gamma_h
+        return -guarded_projection(x, radius, reference(x), reference(radius)) / self.gamma_h
+
+    def guard_activity(self, u, velocity, normal_force, reference):
+        """int over Gamma_C of the indicator of :func:`guard_activity`: zero when the
+        guarded friction law (see :meth:`friction_traction`) is Coulomb's law at u."""
+        radius = self.friction * normal_force
+        x = self.tangential_projection(u, velocity)
+        return guard_activity(x, radius, reference(x), reference(radius)) * self.ds
 
     def pressure(self, u):
         """Discrete contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ (<= 0)."""
@@ -204,42 +246,44 @@ class NitscheContact:
             * self.ds
         )
 
-    def friction_term(self, u, velocity, normal_force, v, stick=False):
+    def friction_term(self, u, velocity, normal_force, v, reference=None):
         """int (1/gamma_h) [P_t(u)]_{mu_f normal_force} . (v_t - Theta gamma_h sigma_t(v))
-        (with ``stick``: the stick branch, see :meth:`friction_traction`)."""
-        traction = self.friction_traction(u, velocity, normal_force, stick)
+        (``reference``: the guarded law of :meth:`friction_traction`)."""
+        traction = self.friction_traction(u, velocity, normal_force, reference)
         return -ufl.dot(traction, self.tangential_test_projection(v)) * self.ds
 
-    def residual(self, u, v, velocity=None, stick=False):
+    def residual(self, u, v, velocity=None, reference=None):
         """Boundary terms of the Nitsche operator B(u)(v) at one time level; with friction,
-        ``velocity`` is u' at that level (``stick``: the stick branch of the law)."""
+        ``velocity`` is u' at that level (``reference``: see :meth:`friction_traction`)."""
         force = positive_part(self.projection(u))
         form = self.consistency_term(u, v) + self.contact_term(force, v)
         if self.frictional:
             form = form + self.tangential_consistency_term(u, v)
-            form = form + self.friction_term(u, self._velocity(velocity), force, v, stick)
+            form = form + self.friction_term(
+                u, self._velocity(velocity), force, v, reference
+            )
         return form
 
-    def hybrid_residual(self, u_old, u_new, v, dt=None, stick=False):
+    def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
         """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi; with
-        friction, the slip velocity (u_new - u_old) / dt and the threshold mu_f Phi."""
-        u_mid, velocity, force = self.hybrid_state(u_old, u_new, dt)
+        friction, the step's mean velocity (u_new - u_old) / tau and the threshold mu_f Phi."""
+        u_mid, force = self.hybrid_state(u_old, u_new)
         form = self.consistency_term(u_mid, v) + self.contact_term(force, v)
         if self.frictional:
             form = form + self.tangential_consistency_term(u_mid, v)
-            form = form + self.friction_term(u_mid, self._velocity(velocity), force, v, stick)
+            form = form + self.friction_term(
+                u_mid, self._velocity(velocity), force, v, reference
+            )
         return form
 
-    def hybrid_state(self, u_old, u_new, dt=None):
-        """What the hybrid scheme's contact terms see: the midpoint u^{n+1/2}, the slip
-        velocity (u_new - u_old) / dt (None without dt), and the normal force
-        Phi(u^n, u^{n+1}) per quadrature point."""
+    def hybrid_state(self, u_old, u_new):
+        """What the hybrid scheme's contact terms see: the midpoint u^{n+1/2} and the
+        normal force Phi(u^n, u^{n+1}) per quadrature point."""
         u_mid = (u_old + u_new) / 2
-        velocity = None if dt is None else (u_new - u_old) / dt
         force = hybrid_contact_force(
             self.projection(u_old), self.projection(u_mid), self.projection(u_new)
         )
-        return u_mid, velocity, force
+        return u_mid, force
 
     @staticmethod
     def _velocity(velocity):

@@ -29,6 +29,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from . import compat
 from .checkpoint import (
@@ -165,17 +166,23 @@ class _FrictionTerms:
         )
         return sum(forms, 0)
 
-    def hybrid_operator(self, u_old, u_new, v, dt=None):
-        forms = (self.term(c, *c.hybrid_state(u_old, u_new, dt), v) for c in self.contacts)
-        return sum(forms, 0)
+    def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        form = 0
+        for contact in self.contacts:
+            u_mid, force = contact.hybrid_state(u_old, u_new)
+            form = form + self.term(contact, u_mid, velocity, force, v)
+        return form
 
 
-class _StickPredictor:
-    """A :class:`ContactProblem` whose friction law is its stick branch (the model
-    interface of the time schemes)."""
+class _GuardedFriction:
+    """A :class:`ContactProblem` whose friction law is guarded by a reference state
+    (:func:`~nitsche_dolfinx.contact.guarded_projection`), behind the model interface of
+    the time schemes. ``reference`` maps an expression of the unknown to its value at
+    the reference state."""
 
-    def __init__(self, problem):
+    def __init__(self, problem, reference):
         self.problem = problem
+        self.reference = reference
 
     def inertia(self, acceleration, v):
         return self.problem.inertia(acceleration, v)
@@ -184,10 +191,10 @@ class _StickPredictor:
         return self.problem.load(v)
 
     def operator(self, u, v, velocity=None):
-        return self.problem.operator(u, v, velocity, stick=True)
+        return self.problem.operator(u, v, velocity, self.reference)
 
-    def hybrid_operator(self, u_old, u_new, v, dt=None):
-        return self.problem.hybrid_operator(u_old, u_new, v, dt, stick=True)
+    def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        return self.problem.hybrid_operator(u_old, u_new, v, velocity, self.reference)
 
 
 #: Friction quantities of :meth:`ContactProblem.friction_terms`.
@@ -402,27 +409,28 @@ class ContactProblem:
         """Whether the contact terms carry Coulomb friction (a coefficient was given)."""
         return self.friction is not None
 
-    def operator(self, u, v, velocity=None, stick=False):
+    def operator(self, u, v, velocity=None, reference=None):
         """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact terms at one time level
-        (with friction, ``velocity`` is u' at that level; ``stick``: the stick branch
-        of the friction law, for :meth:`stick_predictor`)."""
+        (with friction, ``velocity`` is u' at that level; ``reference``: the guarded
+        friction law, see :meth:`guarded_friction`)."""
         form = self.bulk_stiffness(u, v)
         for contact in self.contacts:
-            form = form + contact.residual(u, v, velocity, stick)
+            form = form + contact.residual(u, v, velocity, reference)
         return form
 
-    def hybrid_operator(self, u_old, u_new, v, dt=None, stick=False):
+    def hybrid_operator(self, u_old, u_new, v, velocity=None, reference=None):
         """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term
-        Phi; with friction, the slip velocity (u_new - u_old) / dt."""
+        Phi; with friction, the step's mean velocity ``velocity`` = (u_new - u_old) / tau."""
         form = self.bulk_stiffness((u_old + u_new) / 2, v)
         for contact in self.contacts:
-            form = form + contact.hybrid_residual(u_old, u_new, v, dt, stick)
+            form = form + contact.hybrid_residual(u_old, u_new, v, velocity, reference)
         return form
 
-    def stick_predictor(self):
-        """The problem with the stick branch of the friction law wherever a point is in
-        contact, behind the model interface of the time schemes (see :class:`Simulation`)."""
-        return _StickPredictor(self)
+    def guarded_friction(self, reference):
+        """The problem with its friction law guarded by a reference state, behind the
+        model interface of the time schemes (see :class:`Simulation`); ``reference`` maps
+        an expression of the unknown to its value at that state."""
+        return _GuardedFriction(self, reference)
 
     def friction_terms(self, quantity: str = "work"):
         """A friction quantity as a model with the interface of the time schemes, so that
@@ -506,6 +514,77 @@ class _FrictionOutput:
             field.update()
 
 
+class _GuardedNewton:
+    """Semismooth Newton on the friction law guarded by a reference state (see the
+    ``guard_friction`` argument of :class:`Simulation`).
+
+    Args:
+        problem: The frictional problem.
+        scheme: The time scheme.
+        state: ``(w, u, v, a, dt)`` of the simulation: the unknown, the state at t^n
+            and the time step (a Constant).
+        bcs, petsc_options, affine_cell_terms: As for :class:`SNESSolver`.
+    """
+
+    def __init__(self, problem, scheme, state, bcs, petsc_options, affine_cell_terms):
+        w = state[0]
+        self.w = w
+        self.reference = fem.Function(w.function_space, name="reference")
+        at_reference = {w: self.reference}
+
+        def reference(expr):
+            return ufl.replace(expr, at_reference)
+
+        test = ufl.TestFunction(w.function_space)
+        model = problem.guarded_friction(reference)
+        self.solver = SNESSolver(
+            scheme.residual(model, *state, test),
+            w,
+            bcs,
+            petsc_options=petsc_options,
+            affine_cell_terms=affine_cell_terms,
+            mass_diagonal=problem.mass_diagonal(),
+        )
+        activity = _FrictionTerms(
+            problem.contacts,
+            lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),
+        )
+        self.activity = fem.form(scheme.residual(activity, *state, None))
+        self.comm = problem.mesh.comm
+
+    def solve(self, first_reference: np.ndarray, tolerance: float, updates: int) -> int:
+        """Solve from the current ``w`` with the reference ``first_reference`` (an array
+        of the unknown), moving the reference to each guarded solution until the guarded
+        law is Coulomb's (at most ``updates`` times). The SNES residual tolerance is the
+        absolute ``tolerance``. Returns the Newton iterations of all the solves."""
+        self.solver.snes.setTolerances(rtol=0.0, atol=tolerance)
+        self.reference.x.array[:] = first_reference
+        spent = 0
+        for _ in range(updates + 1):
+            spent += self._solve_once()
+            if assemble_global(self.activity, self.comm) == 0.0:
+                return spent
+            self.reference.x.array[:] = self.w.x.array
+        raise SolverError(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, spent, float("nan"))
+
+    def _solve_once(self) -> int:
+        """One solve with a fixed reference: full Newton steps and, should they cycle
+        among the pieces of the law, again from the same start with the l2 line search
+        (measured: the block just stopped, its edges still slipping)."""
+        start = self.w.x.array.copy()
+        try:
+            return self.solver.solve()
+        except SolverError as error:
+            spent = error.iterations
+        self.w.x.array[:] = start
+        with self.solver.line_search("l2"):
+            try:
+                return spent + self.solver.solve()
+            except SolverError as error:
+                error.iterations += spent
+                raise
+
+
 class Simulation:
     """March a :class:`ContactProblem` in time with one SNES solve per step.
 
@@ -523,14 +602,22 @@ class Simulation:
         preconditioner_lag: When > 0, keep the last factorised Jacobian as the
             preconditioner of GMRES until a linear solve needs more than this many
             iterations (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
-        stick_predictor: With friction, when Newton fails from the last acceleration,
-            start it again from the solution of the step with every contact point
-            sticking (the default). Started from a sliding state, semismooth Newton jumps
-            over the thin stick band |P_t| <= mu_f [P_gamma]_+ from one slip direction to
-            the other and cycles at the step where a point must stop; from the stick
-            state it leaves the band at most once. Each step's Newton iterations then
-            count all three solves.
+        guard_friction: With friction, solve each step's Coulomb law by semismooth
+            Newton guarded by a reference state (the default; False: plain semismooth
+            Newton on [P_t]_r). The stick band |P_t| <= mu_f [P_gamma]_+ is about
+            gamma_h |lambda_n| wide in velocity, far thinner than a step's change of
+            velocity: plain Newton jumps over it from one slip direction to the other
+            and cycles where a point must stop. The guarded law
+            (:func:`~nitsche_dolfinx.contact.guarded_projection`) keeps the stick branch
+            where the reference sticks and behind the reference's slip direction. The
+            first reference is the state coasting at the velocity v^n; after each guarded
+            solve Coulomb's residual is evaluated at its solution, and while it exceeds
+            the SNES tolerance the reference moves to that solution (at most
+            ``guard_updates`` times). Newton iterations count all the guarded solves.
     """
+
+    #: How many times a step may move the reference of the guarded friction law.
+    guard_updates = 10
 
     def __init__(
         self,
@@ -542,7 +629,7 @@ class Simulation:
         progress: bool = False,
         reuse_jacobian: bool = True,
         preconditioner_lag: int = 0,
-        stick_predictor: bool = True,
+        guard_friction: bool = True,
     ):
         check_time_parameters(dt, t_end)
         if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
@@ -590,19 +677,15 @@ class Simulation:
             mass_diagonal=problem.mass_diagonal(),
             preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
         )
-        self._predictor = None
-        self._stick_first = False
-        if problem.frictional and stick_predictor:
-            F_stick = scheme.residual(
-                problem.stick_predictor(), self.w, self.u, self.v, self.a, dt_c, test
-            )
-            self._predictor = SNESSolver(
-                F_stick,
-                self.w,
+        self._guarded = None
+        if problem.frictional and guard_friction:
+            self._guarded = _GuardedNewton(
+                problem,
+                scheme,
+                (self.w, self.u, self.v, self.a, dt_c),
                 bcs,
                 petsc_options=petsc_options,
                 affine_cell_terms=reuse_jacobian,
-                mass_diagonal=problem.mass_diagonal(),
             )
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
@@ -744,28 +827,25 @@ class Simulation:
         return fields
 
     def _solve(self) -> int:
-        """The step's Newton solve. With friction: from the last acceleration and, when
-        that fails, from the stick predictor's solution; once a step needed the
-        predictor, the next ones try it first (points that stick stay stuck) until it
-        fails. Returns the Newton iterations of all the solves."""
-        if self._predictor is None:
+        """The step's Newton solve from the current ``w``; returns the Newton iterations.
+        With friction, guarded as described in the class docstring."""
+        if self._guarded is None:
             return self.solver.solve()
-        guess = self.w.x.array.copy()
-        starts = [False, True] if not self._stick_first else [True, False]
-        spent = 0
-        for stick in starts:
-            self.w.x.array[:] = guess
-            try:
-                if stick:
-                    spent += self._predictor.solve()
-                spent += self.solver.solve()
-            except SolverError as error:
-                spent += error.iterations
-                failure = error
-                continue
-            self._stick_first = stick
-            return spent
-        raise failure
+        rtol, atol, _, _ = self.solver.snes.getTolerances()
+        tolerance = max(atol, rtol * self.solver.residual_norm())
+        try:
+            return self._guarded.solve(self._coasting_unknown(), tolerance, self.guard_updates)
+        except SolverError as error:
+            error.residual_norm = self.solver.residual_norm(new_coefficients=False)
+            raise
+
+    def _coasting_unknown(self) -> np.ndarray:
+        """The unknown w of the step whose new velocity is v^n: the state coasting at
+        constant velocity, where the guarded friction law takes its first reference."""
+        u, v, a, dt = self.u.x.array, self.v.x.array, self.a.x.array, self.dt
+        _, v_0, _ = self.scheme.kinematics(u, v, a, 0.0, dt)
+        _, v_1, _ = self.scheme.kinematics(u, v, a, 1.0, dt)
+        return (v - v_0) / (v_1 - v_0)
 
     def von_mises(self):
         """The von Mises stress of the current displacement, as a UFL expression."""

@@ -37,7 +37,8 @@ class TimeScheme:
 
     The ``model`` passed to :meth:`residual` provides ``inertia(a, v)``,
     ``operator(u, v, velocity)`` (A_Thgamma plus the contact terms at one time level;
-    the velocity feeds the friction term), ``hybrid_operator(u_old, u_new, v, dt)`` and
+    the velocity feeds the friction term), ``hybrid_operator(u_old, u_new, v, velocity)`` (the
+    step's mean velocity (u_new - u_old) / tau, written without that cancelling difference) and
     ``load(v)``.
     """
 
@@ -150,7 +151,14 @@ class HybridScheme(TimeScheme):
 
     def residual(self, model, w, u, v, a, dt, test):
         u1, _, _ = self.kinematics(u, v, a, w, dt)
-        return model.inertia(w, test) + model.hybrid_operator(u, u1, test, dt) - model.load(test)
+        # (u1 - u) / dt, without the round-off of subtracting u (amplified by 1/gamma_h
+        # in the friction term, it would be the floor of the residual once sticking)
+        mean_velocity = v + dt / 2 * w
+        return (
+            model.inertia(w, test)
+            + model.hybrid_operator(u, u1, test, mean_velocity)
+            - model.load(test)
+        )
 
     def equation_time(self, t, dt):
         return t + dt / 2

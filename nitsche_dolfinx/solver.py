@@ -9,6 +9,7 @@ Heaviside function H(x)): SNES's Newton method is then a semismooth Newton.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 from typing import Any
 
@@ -372,6 +373,37 @@ class SNESSolver:
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
+
+    @contextlib.contextmanager
+    def line_search(self, kind: str):
+        """Solve with the SNES line search ``kind`` (e.g. ``"l2"``) inside the block."""
+        database = PETSc.Options()
+        name = f"{self.options_prefix}snes_linesearch_type"
+        previous = database.getString(name) if database.hasName(name) else None
+        database[name] = kind
+        self.snes.setFromOptions()
+        try:
+            yield
+        finally:
+            database[name] = previous or DEFAULT_PETSC_OPTIONS["snes_linesearch_type"]
+            self.snes.setFromOptions()
+            if previous is None:
+                database.delValue(name)
+
+    def residual_norm(self, new_coefficients: bool = True) -> float:
+        """The Euclidean norm of the residual at the current value of ``u`` (collective).
+
+        Args:
+            new_coefficients: The coefficients other than ``u`` changed since the last
+                solve or evaluation (with ``affine_cell_terms`` the constant part of the
+                cell terms is then re-assembled).
+        """
+        if self._split is not None and new_coefficients:
+            self._split.update_cell_residual(self.u)
+        u_vec = compat.petsc_vector(self.u)
+        u_vec.copy(self._x)
+        self._assemble_residual(self.snes, self._x, self._b)
+        return self._b.norm()
 
     def destroy(self) -> None:
         """Free the PETSc objects (collective)."""
