@@ -36,6 +36,7 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE
 from nitsche_dolfinx.plotting import latex_number
+from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS
 from nitsche_dolfinx.solver import rigid_body_modes
 
 #: Time of the talk's picture of the deformed ball.
@@ -77,6 +78,19 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         default=10,
         help="write solution.xdmf every this many steps (0: never)",
     )
+    parser.add_argument(
+        "--mu",
+        type=finite_float,
+        default=None,
+        help="Coulomb friction coefficient (default: frictionless); with friction the "
+        "energy figure shows the main run alone",
+    )
+    parser.add_argument(
+        "--tangential-velocity",
+        type=finite_float,
+        default=0.0,
+        help="initial velocity along x: the body is thrown obliquely",
+    )
     parser.add_argument("--out", default=default_out, help="output folder")
     parser.add_argument(
         "--linear-solver",
@@ -116,6 +130,8 @@ def check_arguments(args: argparse.Namespace) -> None:
         raise ValueError(f"the mesh size must be positive, got --mesh-size {args.mesh_size:g}")
     if args.output_every < 0:
         raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
+    if args.mu is not None and args.mu < 0:
+        raise ValueError(f"the friction coefficient must be >= 0, got --mu {args.mu:g}")
     check_output_folder(args.out)
 
 
@@ -190,6 +206,8 @@ def impact_simulation(
         gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta,
         comm=MPI.COMM_WORLD,
+        friction=args.mu,
+        tangential_velocity=args.tangential_velocity,
     )
     options, lag, solver = linear_solver(args.linear_solver, problem.mesh.comm)
     options.update(dict(args.petsc))
@@ -234,8 +252,10 @@ def run(
     restart = args.restart and (
         not compared or os.path.exists(os.path.join(out, "checkpoint", CHECKPOINT_FILE))
     )
+    columns = HISTORY_COLUMNS if simulation.problem.friction is None else FRICTION_HISTORY_COLUMNS
     records = simulation.run(
         out=out,
+        columns=columns,
         output_every=output_every,
         callback=callback,
         checkpoint_every=args.checkpoint_every,
@@ -251,13 +271,14 @@ def run(
         "dofs": V.dofmap.index_map.size_global * V.dofmap.index_map_bs,
         "seconds": seconds,
         "linear_solver": solver,
-        **{name: np.array([record[name] for record in records]) for name in HISTORY_COLUMNS},
+        **{name: np.array([record[name] for record in records]) for name in columns},
     }
 
 
 def compared_runs(args: argparse.Namespace) -> list[str]:
     """The schemes of the energy figure other than the main run's, when comparing."""
-    return [name for name in COMPARED_SCHEMES if args.compare and name != args.scheme]
+    compare = args.compare and args.mu is None  # the talk's figure is frictionless
+    return [name for name in COMPARED_SCHEMES if compare and name != args.scheme]
 
 
 # -- summary -------------------------------------------------------------------------
@@ -303,6 +324,14 @@ def print_summary(results: list[dict], args: argparse.Namespace) -> None:
         "(1st contact: first t with contact force > 0; drifts: relative changes over [0, T]; "
         "max dE_Th/E_Th(0): largest one-step rise of E_Theta; Newton: iterations per step)"
     )
+    if "friction_dissipation" in main:
+        work, balance = main["friction_dissipation"], main["energy_balance_residual"]
+        print(
+            f"friction (mu_f = {args.mu:g}): frictional work {np.sum(work):.6g}, "
+            f"smallest D^n {np.min(work):+.3e}, largest |E_Th^(n+1) - E_Th^n + D^n| "
+            f"{np.max(np.abs(balance)):.3e} (the hybrid scheme's own dissipation where "
+            "contact starts or ends)"
+        )
     for result in results:
         print(f"history: {os.path.join(result['out'], 'history.csv')}")
 

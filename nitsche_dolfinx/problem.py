@@ -611,9 +611,10 @@ class Simulation:
             (:func:`~nitsche_dolfinx.contact.guarded_projection`) keeps the stick branch
             where the reference sticks and behind the reference's slip direction. The
             first reference is the state coasting at the velocity v^n; after each guarded
-            solve Coulomb's residual is evaluated at its solution, and while it exceeds
-            the SNES tolerance the reference moves to that solution (at most
-            ``guard_updates`` times). Newton iterations count all the guarded solves.
+            solve (to the tolerance of the step's SNES) an assembled indicator tells
+            whether the guarded law is Coulomb's at every quadrature point, and while it
+            is not, the reference moves to that solution (at most ``guard_updates``
+            times). Newton iterations count all the guarded solves.
     """
 
     #: How many times a step may move the reference of the guarded friction law.
