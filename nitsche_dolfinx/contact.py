@@ -259,9 +259,7 @@ class NitscheContact:
         form = self.consistency_term(u, v) + self.contact_term(force, v)
         if self.frictional:
             form = form + self.tangential_consistency_term(u, v)
-            form = form + self.friction_term(
-                u, self._velocity(velocity), force, v, reference
-            )
+            form = form + self.friction_term(u, self._velocity(velocity), force, v, reference)
         return form
 
     def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
@@ -271,9 +269,7 @@ class NitscheContact:
         form = self.consistency_term(u_mid, v) + self.contact_term(force, v)
         if self.frictional:
             form = form + self.tangential_consistency_term(u_mid, v)
-            form = form + self.friction_term(
-                u_mid, self._velocity(velocity), force, v, reference
-            )
+            form = form + self.friction_term(u_mid, self._velocity(velocity), force, v, reference)
         return form
 
     def hybrid_state(self, u_old, u_new):
