@@ -76,9 +76,10 @@ def guarded_projection(x, radius, reference, reference_radius):
     In 1D tangent (2D problems) a slipping reference gives ``min(x, r)`` for d > 0:
     monotone with two affine pieces, so semismooth Newton cannot cycle from one slip
     direction to the other across the thin stick band. The guarded law agrees with
-    Coulomb's [x]_r wherever |x| <= r (stick) and wherever the slip keeps the reference's
-    status and direction; :class:`~nitsche_dolfinx.problem.Simulation` checks the true
-    residual at the guarded solution and moves the reference to it until they agree.
+    Coulomb's [x]_r wherever :func:`guard_activity` is 0; with the reference at the point
+    itself (x_ref = x, r_ref = r) it is [x]_r everywhere.
+    :class:`~nitsche_dolfinx.problem.Simulation` moves the reference to the guarded
+    solution until the two agree.
     """
     switch = ufl.conditional(ufl.gt(radius, 0), 1, 0)
     along = ufl.dot(x, reference)
@@ -86,18 +87,20 @@ def guarded_projection(x, radius, reference, reference_radius):
     x_d = along / ufl.conditional(ufl.gt(d2, 0), d2, 1) * reference
     behind = ball_projection(x - x_d, radius) + switch * x_d
     slipping = ufl.conditional(ufl.lt(along, 0), behind, ball_projection(x, radius))
-    return ufl.conditional(ufl.le(d2, reference_radius**2), switch * x, slipping)
+    return ufl.conditional(_sticks(reference, reference_radius), switch * x, slipping)
 
 
 def guard_activity(x, radius, reference, reference_radius):
     """1 where :func:`guarded_projection` differs from [x]_r, else 0: outside the ball
     (|x| > r > 0) where the reference sticks or x points behind its slip direction."""
-    outside = ufl.And(ufl.gt(radius, 0), ufl.gt(ufl.dot(x, x), radius**2))
-    guarded = ufl.Or(
-        ufl.le(ufl.dot(reference, reference), reference_radius**2),
-        ufl.lt(ufl.dot(x, reference), 0),
-    )
+    outside = ufl.And(ufl.gt(radius, 0), ufl.Not(_sticks(x, radius)))
+    guarded = ufl.Or(_sticks(reference, reference_radius), ufl.lt(ufl.dot(x, reference), 0))
     return ufl.conditional(ufl.And(outside, guarded), 1, 0)
+
+
+def _sticks(x, radius):
+    """|x| <= r, the stick band of [x]_r (as a UFL condition)."""
+    return ufl.le(ufl.dot(x, x), radius**2)
 
 
 def nitsche_projection(u_n, gap, sigma_n_u, gamma_h):
@@ -204,8 +207,7 @@ class NitscheContact:
         [P_gamma(u)]_+ (or the hybrid scheme's Phi). With ``reference``, a map from an
         expression of the unknown to its value at a reference state, the projection is
         guarded by that state's P_t and radius (:func:`guarded_projection`)."""
-        radius = self.friction * normal_force
-        x = self.tangential_projection(u, velocity)
+        x, radius = self._slip_state(u, velocity, normal_force)
         if reference is None:
             return -ball_projection(x, radius) / self.gamma_h
         return -guarded_projection(x, radius, reference(x), reference(radius)) / self.gamma_h
@@ -213,9 +215,12 @@ class NitscheContact:
     def guard_activity(self, u, velocity, normal_force, reference):
         """int over Gamma_C of the indicator of :func:`guard_activity`: zero when the
         guarded friction law (see :meth:`friction_traction`) is Coulomb's law at u."""
-        radius = self.friction * normal_force
-        x = self.tangential_projection(u, velocity)
+        x, radius = self._slip_state(u, velocity, normal_force)
         return guard_activity(x, radius, reference(x), reference(radius)) * self.ds
+
+    def _slip_state(self, u, velocity, normal_force):
+        """The argument P_t(u) of the friction law and its radius mu_f normal_force."""
+        return self.tangential_projection(u, velocity), self.friction * normal_force
 
     def pressure(self, u):
         """Discrete contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ (<= 0)."""

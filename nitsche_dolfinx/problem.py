@@ -518,15 +518,19 @@ class _GuardedNewton:
     """Semismooth Newton on the friction law guarded by a reference state (see the
     ``guard_friction`` argument of :class:`Simulation`).
 
+    ``model`` is the problem with the guarded law, for the step's residual. With the
+    reference at the unknown itself the guarded law is Coulomb's, value for value
+    (:func:`~nitsche_dolfinx.contact.guarded_projection`), so the same solver also
+    evaluates Coulomb's residual (:meth:`coulomb_residual`).
+
     Args:
         problem: The frictional problem.
         scheme: The time scheme.
         state: ``(w, u, v, a, dt)`` of the simulation: the unknown, the state at t^n
             and the time step (a Constant).
-        bcs, petsc_options, affine_cell_terms: As for :class:`SNESSolver`.
     """
 
-    def __init__(self, problem, scheme, state, bcs, petsc_options, affine_cell_terms):
+    def __init__(self, problem, scheme, state):
         w = state[0]
         self.w = w
         self.reference = fem.Function(w.function_space, name="reference")
@@ -535,16 +539,7 @@ class _GuardedNewton:
         def reference(expr):
             return ufl.replace(expr, at_reference)
 
-        test = ufl.TestFunction(w.function_space)
-        model = problem.guarded_friction(reference)
-        self.solver = SNESSolver(
-            scheme.residual(model, *state, test),
-            w,
-            bcs,
-            petsc_options=petsc_options,
-            affine_cell_terms=affine_cell_terms,
-            mass_diagonal=problem.mass_diagonal(),
-        )
+        self.model = problem.guarded_friction(reference)
         activity = _FrictionTerms(
             problem.contacts,
             lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),
@@ -552,34 +547,42 @@ class _GuardedNewton:
         self.activity = fem.form(scheme.residual(activity, *state, None))
         self.comm = problem.mesh.comm
 
-    def solve(self, first_reference: np.ndarray, tolerance: float, updates: int) -> int:
+    def coulomb_residual(self, solver: SNESSolver, new_coefficients: bool = True) -> float:
+        """The norm of Coulomb's residual at the current ``w`` (the reference is moved
+        to ``w``); ``solver`` is the SNES of :attr:`model`'s residual."""
+        self.reference.x.array[:] = self.w.x.array
+        return solver.residual_norm(new_coefficients)
+
+    def solve(
+        self, solver: SNESSolver, first_reference: np.ndarray, tolerance: float, updates: int
+    ) -> int:
         """Solve from the current ``w`` with the reference ``first_reference`` (an array
         of the unknown), moving the reference to each guarded solution until the guarded
         law is Coulomb's (at most ``updates`` times). The SNES residual tolerance is the
         absolute ``tolerance``. Returns the Newton iterations of all the solves."""
-        self.solver.snes.setTolerances(rtol=0.0, atol=tolerance)
+        solver.snes.setTolerances(rtol=0.0, atol=tolerance)
         self.reference.x.array[:] = first_reference
         spent = 0
         for _ in range(updates + 1):
-            spent += self._solve_once()
+            spent += self._solve_once(solver)
             if assemble_global(self.activity, self.comm) == 0.0:
                 return spent
             self.reference.x.array[:] = self.w.x.array
         raise SolverError(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, spent, float("nan"))
 
-    def _solve_once(self) -> int:
+    def _solve_once(self, solver: SNESSolver) -> int:
         """One solve with a fixed reference: full Newton steps and, should they cycle
         among the pieces of the law, again from the same start with the l2 line search
         (measured: the block just stopped, its edges still slipping)."""
         start = self.w.x.array.copy()
         try:
-            return self.solver.solve()
+            return solver.solve()
         except SolverError as error:
             spent = error.iterations
         self.w.x.array[:] = start
-        with self.solver.line_search("l2"):
+        with solver.line_search("l2"):
             try:
-                return spent + self.solver.solve()
+                return spent + solver.solve()
             except SolverError as error:
                 error.iterations += spent
                 raise
@@ -666,7 +669,12 @@ class Simulation:
         bcs = [fem.dirichletbc(self._w_bc, dofs) for dofs, _ in self._bc_dofs]
         test = ufl.TestFunction(V)
         dt_c = fem.Constant(problem.mesh, self.dt)
-        F = scheme.residual(problem, self.w, self.u, self.v, self.a, dt_c, test)
+        self._guarded = None
+        model = problem
+        if problem.frictional and guard_friction:
+            self._guarded = _GuardedNewton(problem, scheme, (self.w, self.u, self.v, self.a, dt_c))
+            model = self._guarded.model
+        F = scheme.residual(model, self.w, self.u, self.v, self.a, dt_c, test)
         # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
         # the unknown, and only the contact terms on Gamma_C change the Jacobian.
         self.solver = SNESSolver(
@@ -678,16 +686,8 @@ class Simulation:
             mass_diagonal=problem.mass_diagonal(),
             preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
         )
-        self._guarded = None
-        if problem.frictional and guard_friction:
-            self._guarded = _GuardedNewton(
-                problem,
-                scheme,
-                (self.w, self.u, self.v, self.a, dt_c),
-                bcs,
-                petsc_options=petsc_options,
-                affine_cell_terms=reuse_jacobian,
-            )
+        # the guarded solves set their own absolute tolerance from these at every step
+        self._tolerances = self.solver.snes.getTolerances()[:2]
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
         self._energy_before = None  # E_Theta^n of the last step
@@ -832,12 +832,13 @@ class Simulation:
         With friction, guarded as described in the class docstring."""
         if self._guarded is None:
             return self.solver.solve()
-        rtol, atol, _, _ = self.solver.snes.getTolerances()
-        tolerance = max(atol, rtol * self.solver.residual_norm())
+        guarded, solver = self._guarded, self.solver
+        rtol, atol = self._tolerances
+        tolerance = max(atol, rtol * guarded.coulomb_residual(solver))
         try:
-            return self._guarded.solve(self._coasting_unknown(), tolerance, self.guard_updates)
+            return guarded.solve(solver, self._coasting_unknown(), tolerance, self.guard_updates)
         except SolverError as error:
-            error.residual_norm = self.solver.residual_norm(new_coefficients=False)
+            error.residual_norm = guarded.coulomb_residual(solver, new_coefficients=False)
             raise
 
     def _coasting_unknown(self) -> np.ndarray:
