@@ -141,17 +141,18 @@ def _as_array(value, shape, what) -> np.ndarray:
     return array
 
 
-class _FrictionTerms:
-    """A friction quantity of a problem behind the model interface of the time schemes
+class _ContactTerms:
+    """A contact quantity of a problem behind the model interface of the time schemes
     (no inertia, bulk or load), so that ``scheme.residual(terms, w, u, v, a, dt, test)``
-    evaluates it with the step's own slip velocity and threshold (hybrid: v^{n+1/2} and
-    mu_f Phi; theta and Newmark: v^{n+1} and mu_f [P_gamma(u^{n+1})]_+).
+    evaluates it with the step's own normal force, slip velocity and threshold (hybrid:
+    Phi, v^{n+1/2} and mu_f Phi; theta and Newmark: [P_gamma(u^{n+1})]_+, v^{n+1} and
+    mu_f [P_gamma(u^{n+1})]_+).
 
     ``term(contact, u, velocity, normal_force, test)`` is the form of one contact.
     """
 
     def __init__(self, contacts, term):
-        self.contacts = [contact for contact in contacts if contact.frictional]
+        self.contacts = list(contacts)
         self.term = term
 
     def inertia(self, acceleration, v):
@@ -409,6 +410,15 @@ class ContactProblem:
         """Whether the contact terms carry Coulomb friction (a coefficient was given)."""
         return self.friction is not None
 
+    @property
+    def symmetric_jacobian(self) -> bool:
+        """Whether the Jacobian of every time scheme is symmetric: without friction, with
+        the symmetric variant Theta = 1 or with penalty (whose test term is v_n).
+        :class:`Simulation` reads it once, when it is built."""
+        if self.frictional:
+            return False
+        return self.method == "penalty" or float(np.asarray(self.nitsche_theta.value)) == 1.0
+
     def operator(self, u, v, velocity=None, reference=None):
         """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact terms at one time level
         (with friction, ``velocity`` is u' at that level; ``reference``: the guarded
@@ -447,7 +457,15 @@ class ContactProblem:
                 f"unknown friction quantity {quantity!r}; "
                 f"choose one of {', '.join(_FRICTION_QUANTITIES)}"
             )
-        return _FrictionTerms(self.contacts, _FRICTION_QUANTITIES[quantity])
+        frictional = [contact for contact in self.contacts if contact.frictional]
+        return _ContactTerms(frictional, _FRICTION_QUANTITIES[quantity])
+
+    def contact_activity(self):
+        """The normal force tested by a cell-wise function, ``int_Gamma_C force q``, as a
+        model with the interface of the time schemes (the scheme supplies its force:
+        [P_gamma(u^{n+1})]_+ or Phi). It is zero on the cells where every contact term
+        is inactive: there the terms are affine and their Jacobian does not change."""
+        return _ContactTerms(self.contacts, lambda c, u, velocity, force, q: force * q * c.ds)
 
     def load(self, v):
         """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
@@ -540,8 +558,8 @@ class _GuardedNewton:
             return ufl.replace(expr, at_reference)
 
         self.model = problem.guarded_friction(reference)
-        activity = _FrictionTerms(
-            problem.contacts,
+        activity = _ContactTerms(
+            [contact for contact in problem.contacts if contact.frictional],
             lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),
         )
         self.activity = fem.form(scheme.residual(activity, *state, None))
@@ -675,6 +693,11 @@ class Simulation:
             self._guarded = _GuardedNewton(problem, scheme, (self.w, self.u, self.v, self.a, dt_c))
             model = self._guarded.model
         F = scheme.residual(model, self.w, self.u, self.v, self.a, dt_c, test)
+        activity = None
+        if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
+            cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
+            terms = problem.contact_activity()
+            activity = scheme.residual(terms, self.w, self.u, self.v, self.a, dt_c, cellwise)
         # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
         # the unknown, and only the contact terms on Gamma_C change the Jacobian.
         self.solver = SNESSolver(
@@ -685,6 +708,8 @@ class Simulation:
             affine_cell_terms=reuse_jacobian,
             mass_diagonal=problem.mass_diagonal(),
             preconditioner_lag=preconditioner_lag if reuse_jacobian else 0,
+            facet_activity=activity,
+            symmetric=problem.symmetric_jacobian,
         )
         # the guarded solves set their own absolute tolerance from these at every step
         self._tolerances = self.solver.snes.getTolerances()[:2]
