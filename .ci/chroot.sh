@@ -73,7 +73,8 @@ run() {
   mount_system "$dir"
   mkdir -p "$dir$work"
   mount --bind "$REPO" "$dir$work"
-  trap "umount -l '$dir$work'; rmdir '$dir$work'" RETURN
+  # EXIT, not RETURN: under set -e a failing command leaves the script without returning
+  trap "umount -l '$dir$work'; rmdir '$dir$work'" EXIT
   chroot "$dir" /usr/bin/env -i PATH=/usr/local/bin:/usr/bin:/bin HOME=/root LANG=C.UTF-8 \
     OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
     OPENBLAS_NUM_THREADS=1 \

@@ -44,8 +44,9 @@ PICTURE_TIME = 18.0
 
 #: ``--linear-solver`` choices: name -> what it is.
 LINEAR_SOLVERS = {
-    "lu": "direct LU at every change of the Jacobian (MUMPS when PETSc has it)",
-    "lu-lagged": "the last LU factorisation as GMRES preconditioner, renewed past 10 iterations",
+    "lu": "a direct factorisation at every change of the Jacobian (MUMPS when PETSc has "
+    "it; its LDL^T when the Jacobian is symmetric: Theta = 1 without friction)",
+    "lu-lagged": "the last factorisation as GMRES preconditioner, renewed past 10 iterations",
     "cg-gamg": "conjugate gradients, algebraic multigrid with the rigid-body near-nullspace",
     "gmres-gamg": "GMRES, algebraic multigrid with the rigid-body near-nullspace",
 }

@@ -104,11 +104,11 @@
 #   pressure: it shrinks with $\gamma_0$. Newton needs 1.02 iterations per
 #   step.
 #
-# Each run's time loop takes 15-18 s with the default direct solver on a
-# two-core machine with the reference BLAS (MUMPS spends most of it
-# re-factorising the Jacobian, at every change of the contact set: 183
-# times), about 8-10 s with `--linear-solver lu-lagged`; with the comparison,
-# the demo takes about a minute.
+# Each run's time loop takes about 6 s with the default direct solver on a
+# two-core machine with OpenBLAS (MUMPS spends most of it re-factorising the
+# Jacobian, at every change of the contact set: 183 times), about 4 s with
+# `--linear-solver lu-lagged`; with the comparison, the demo takes about a
+# minute.
 #
 # ## Linear solvers
 #
@@ -117,8 +117,9 @@
 # part once and changes the matrix only when the contact set changes. The
 # `--linear-solver` flag chooses how to solve with it:
 #
-# - `lu` (default): a direct LU factorisation, with MUMPS when PETSc has it
-#   (PETSc's own LU is serial only), redone at every change of the matrix;
+# - `lu` (default): a direct factorisation, with MUMPS when PETSc has it
+#   (its LDL^T here, since the Jacobian is symmetric for $\Theta = 1$;
+#   PETSc's own LU is serial only), redone at every change of the matrix;
 # - `lu-lagged`: the last factorisation as the preconditioner of GMRES,
 #   redone only when GMRES needs more than 10 iterations
 #   (`Simulation(preconditioner_lag=10)`);

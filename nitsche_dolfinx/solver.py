@@ -261,13 +261,14 @@ class SNESSolver:
         options = {**DEFAULT_PETSC_OPTIONS}
         if _mumps_available(u.function_space.mesh.comm):
             options["pc_factor_mat_solver_type"] = "mumps"
-            if symmetric:
-                options["pc_type"] = "cholesky"
         if self.preconditioner_lag > 0:
             options.update(ksp_type="gmres", ksp_pc_side="right", ksp_max_it=200)
             options.update(ksp_rtol=1e-12, ksp_atol=1e-14)
         user_options = dict(petsc_options or {})
         options.update(user_options)
+        if symmetric and "pc_type" not in user_options:
+            if options.get("pc_factor_mat_solver_type") == "mumps":
+                options["pc_type"] = "cholesky"  # LDL^T with pivoting
         comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
@@ -490,6 +491,7 @@ class _AffineCellSplit:
             self.activity = fem.form(activity)
             self._activity = compat.create_vector(activity.arguments()[0].ufl_function_space())
         self._inactive = False  # whether B_last was assembled with the facet terms inactive
+        self.assemblies = 0  # of the facet Jacobian
 
     def update_cell_residual(self, u: fem.Function) -> None:
         """F_cell(0) for the current coefficients (assembled with u = 0; u is restored)."""
@@ -525,6 +527,7 @@ class _AffineCellSplit:
         if inactive and self._inactive and self.B_last is not None:
             return False  # inactive now and at the last assembly: the same Jacobian
         self._inactive = inactive
+        self.assemblies += 1
         self.B.zeroEntries()
         self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()

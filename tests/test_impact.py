@@ -87,3 +87,50 @@ def test_xdmf_has_three_fields_at_every_output_time(mpi_tmp_path):
                 assert np.all(np.isfinite(dataset[()]))
     text = open(os.path.join(mpi_tmp_path, "solution.xdmf")).read()
     assert text.count('<Time Value="') >= 5
+
+
+def _disk_steps(steps, activity=True, **options):
+    """The disk's simulation after ``steps`` steps, and the facet Jacobian's assemblies
+    and the factorisations after each step (``activity=False``: without the skip)."""
+    problem = impact_problem(dim=2, mesh_size=8.0)
+    simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=steps * 0.1, **options)
+    if not activity:
+        simulation.solver._split.activity = None  # assemble at every evaluation
+    counts = []
+    for _ in range(steps):
+        simulation.step()
+        split = simulation.solver._split
+        counts.append((split.assemblies, simulation.solver.preconditioner_updates))
+    return simulation, np.array(counts)
+
+
+def test_contact_jacobian_assembled_only_in_contact():
+    """In free fall the activity form is zero: the facet Jacobian is assembled once, the
+    Jacobian factorised once; in contact the facet Jacobian is re-assembled. Skipping it
+    changes nothing: the run with the skip disabled gives the same state."""
+    simulation, counts = _disk_steps(120)
+    fall = counts[:95]  # t <= 9.5, before the first contact at t ~ 10
+    assert fall[:, 0].max() == 1 and fall[:, 1].max() == 1
+    assert counts[-1, 0] > counts[95, 0] + 10  # one per Newton iteration in contact
+    reference, reference_counts = _disk_steps(120, activity=False)
+    assert reference.solver._split.assemblies == reference.solver.jacobian_evaluations
+    for name in ("u", "v"):
+        ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
+        assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+
+
+def test_symmetric_jacobian_factorised_by_ldlt():
+    """Theta = 1 without friction: MUMPS's LDL^T (where PETSc has MUMPS), with the
+    states of an LU run through the impact; Theta = 0 keeps LU."""
+    from nitsche_dolfinx import compat
+
+    steps = 110
+    symmetric, _ = _disk_steps(steps)
+    lu, _ = _disk_steps(steps, petsc_options={"pc_type": "lu"})
+    pc_type = symmetric.solver.snes.getKSP().getPC().getType()
+    assert pc_type == ("cholesky" if compat.has_mumps(MPI.COMM_WORLD) else "lu")
+    assert lu.solver.snes.getKSP().getPC().getType() == "lu"
+    scale = np.abs(lu.u.x.array).max()
+    assert np.allclose(symmetric.u.x.array, lu.u.x.array, rtol=0, atol=1e-9 * scale)
+    problem = impact_problem(dim=2, mesh_size=8.0, nitsche_theta=0.0)
+    assert not problem.symmetric_jacobian
