@@ -118,7 +118,7 @@
 # `--linear-solver` flag chooses how to solve with it:
 #
 # - `lu` (default): a direct factorisation, with MUMPS when PETSc has it
-#   (its LDL^T here, since the Jacobian is symmetric for $\Theta = 1$;
+#   (serially its LDL^T here, since the Jacobian is symmetric for $\Theta = 1$;
 #   PETSc's own LU is serial only), redone at every change of the matrix;
 # - `lu-lagged`: the last factorisation as the preconditioner of GMRES,
 #   redone only when GMRES needs more than 10 iterations

@@ -203,9 +203,10 @@ class SNESSolver:
             For contact, the normal force ``int [P_gamma(u)]_+ q``. While it is zero
             on every cell, the facet Jacobian is not re-assembled.
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
-            With MUMPS, the default direct solver is then its symmetric LDL^T
+            Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
-            positive definite), about a third cheaper than LU.
+            positive definite), about a third cheaper than LU. Under MPI it stays LU:
+            MUMPS's parallel LDL^T failed on the ball with PETSc 3.22.
 
     Example:
         >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
@@ -266,10 +267,10 @@ class SNESSolver:
             options.update(ksp_rtol=1e-12, ksp_atol=1e-14)
         user_options = dict(petsc_options or {})
         options.update(user_options)
-        if symmetric and "pc_type" not in user_options:
+        comm = V.mesh.comm
+        if symmetric and comm.size == 1 and "pc_type" not in user_options:
             if options.get("pc_factor_mat_solver_type") == "mumps":
                 options["pc_type"] = "cholesky"  # LDL^T with pivoting
-        comm = V.mesh.comm
         self.snes = PETSc.SNES().create(comm)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         self.snes.setOptionsPrefix(self.options_prefix)
