@@ -411,6 +411,11 @@ class ContactProblem:
         return self.friction is not None
 
     @property
+    def frictional_contacts(self) -> list[NitscheContact]:
+        """The contacts with a Coulomb coefficient (all of them, or none)."""
+        return [contact for contact in self.contacts if contact.frictional]
+
+    @property
     def symmetric_jacobian(self) -> bool:
         """Whether the Jacobian of every time scheme is symmetric: without friction, with
         the symmetric variant Theta = 1 or with penalty (whose test term is v_n).
@@ -457,8 +462,7 @@ class ContactProblem:
                 f"unknown friction quantity {quantity!r}; "
                 f"choose one of {', '.join(_FRICTION_QUANTITIES)}"
             )
-        frictional = [contact for contact in self.contacts if contact.frictional]
-        return _ContactTerms(frictional, _FRICTION_QUANTITIES[quantity])
+        return _ContactTerms(self.frictional_contacts, _FRICTION_QUANTITIES[quantity])
 
     def contact_activity(self):
         """The normal force tested by a cell-wise function, ``int_Gamma_C force q``, as a
@@ -559,7 +563,7 @@ class _GuardedNewton:
 
         self.model = problem.guarded_friction(reference)
         activity = _ContactTerms(
-            [contact for contact in problem.contacts if contact.frictional],
+            problem.frictional_contacts,
             lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),
         )
         self.activity = fem.form(scheme.residual(activity, *state, None))

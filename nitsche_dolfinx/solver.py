@@ -241,9 +241,12 @@ class SNESSolver:
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)
-        self._A = self.J_forms.create_matrix()
-        if symmetric:
-            self._A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        self._split = (
+            _AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
+            if affine_cell_terms
+            else None
+        )
+        self._A = self._new_matrix(symmetric)
         if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
             self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._P = None
@@ -253,11 +256,6 @@ class SNESSolver:
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
         self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
-        self._split = (
-            _AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
-            if affine_cell_terms
-            else None
-        )
 
         options = {**DEFAULT_PETSC_OPTIONS}
         if _mumps_available(u.function_space.mesh.comm):
@@ -276,9 +274,7 @@ class SNESSolver:
         self.snes.setOptionsPrefix(self.options_prefix)
         self.snes.setFunction(self._assemble_residual, self._b)
         if self.preconditioner_lag > 0:
-            self._P = self.J_forms.create_matrix()
-            if symmetric:
-                self._P.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+            self._P = self._new_matrix(symmetric)
             self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
         else:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
@@ -297,6 +293,17 @@ class SNESSolver:
             for name in inserted:
                 if name not in self._user_option_names:
                     PETSc.Options().delValue(name)
+
+    def _new_matrix(self, symmetric: bool) -> PETSc.Mat:
+        """A matrix with the sparsity of J: with the split, a copy of the structure of
+        its K_bc (already assembled on that sparsity), else dolfinx's for the form."""
+        if self._split is not None:
+            matrix = self._split.K_bc.duplicate()  # zero values
+        else:
+            matrix = self.J_forms.create_matrix()
+        if symmetric:
+            matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+        return matrix
 
     def set_near_nullspace(self, vectors: list[PETSc.Vec]) -> None:
         """Give algebraic multigrid (``pc_type gamg``) the near-nullspace of the Jacobian,
@@ -338,22 +345,16 @@ class SNESSolver:
 
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
-        if self._split is None or self.jacobian_updates == 0:
-            # the whole Jacobian: always without a split, and once with one (it gives A
-            # its full sparsity, which the cheaper updates below then keep)
+        if self._split is None:  # the whole Jacobian
             A.zeroEntries()
             self.J_forms.assemble_matrix(A, self.bcs)
             A.assemble()
             if self._D is not None:
                 A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
                 A.assemble()
-            if self._split is not None:
-                # remember the facet part, and give A the values of every later update
-                # (K_bc + B, summed in that order): a run restarted from a checkpoint
-                # then factorises bit for bit the matrices of the uninterrupted run
-                self._split.facet_jacobian_changed()
-                self._split.sum_into(A)
-        elif self._split.facet_jacobian_changed():
+        elif self._split.facet_jacobian_changed():  # always at the first evaluation
+            # every Jacobian is K_bc + B, summed in that order: a run restarted from a
+            # checkpoint then factorises bit for bit the matrices of the uninterrupted run
             self._split.sum_into(A)
         else:
             return  # A unchanged: its PETSc state stays, so the factorisation is reused
@@ -363,9 +364,6 @@ class SNESSolver:
             return
         ksp = snes.getKSP()
         if self.preconditioner_updates == 0 or ksp.getIterationNumber() > self.preconditioner_lag:
-            if self.preconditioner_updates == 0:  # gives P its structure
-                self.J_forms.assemble_matrix(P, self.bcs)
-                P.assemble()
             A.copy(P, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.preconditioner_updates += 1
             ksp.setType("preonly")  # P is A: one direct solve

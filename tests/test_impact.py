@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation
+from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, compat
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.problem import STATE_COLUMNS
 
@@ -112,7 +112,7 @@ def test_contact_jacobian_assembled_only_in_contact():
     fall = counts[:95]  # t <= 9.5, before the first contact at t ~ 10
     assert fall[:, 0].max() == 1 and fall[:, 1].max() == 1
     assert counts[-1, 0] > counts[95, 0] + 10  # one per Newton iteration in contact
-    reference, reference_counts = _disk_steps(120, activity=False)
+    reference, _ = _disk_steps(120, activity=False)
     assert reference.solver._split.assemblies == reference.solver.jacobian_evaluations
     for name in ("u", "v"):
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
@@ -122,8 +122,6 @@ def test_contact_jacobian_assembled_only_in_contact():
 def test_symmetric_jacobian_factorised_by_ldlt():
     """Theta = 1 without friction: MUMPS's LDL^T (where PETSc has MUMPS), with the
     states of an LU run through the impact; Theta = 0 keeps LU."""
-    from nitsche_dolfinx import compat
-
     steps = 110
     symmetric, _ = _disk_steps(steps)
     lu, _ = _disk_steps(steps, petsc_options={"pc_type": "lu"})
