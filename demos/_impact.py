@@ -26,6 +26,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import HISTORY_COLUMNS, Simulation, compat, make_scheme
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
+    add_output_every_argument,
     add_run_arguments,
     check_method_arguments,
     check_output_folder,
@@ -73,12 +74,7 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
     # Newmark (1/2, 1): the stable member the talk compares with
     add_method_arguments(parser, gamma0=1e-3, degree=2, dt=0.1, t_end=40.0, beta=0.5, gamma=1.0)
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
-    parser.add_argument(
-        "--output-every",
-        type=int,
-        default=10,
-        help="write solution.xdmf every this many steps (0: never)",
-    )
+    add_output_every_argument(parser)
     parser.add_argument(
         "--mu",
         type=finite_float,
@@ -129,8 +125,6 @@ def check_arguments(args: argparse.Namespace) -> None:
     check_method_arguments(args)
     if not args.mesh_size > 0:
         raise ValueError(f"the mesh size must be positive, got --mesh-size {args.mesh_size:g}")
-    if args.output_every < 0:
-        raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
     if args.mu is not None and args.mu < 0:
         raise ValueError(f"the friction coefficient must be >= 0, got --mu {args.mu:g}")
     check_output_folder(args.out)
@@ -197,8 +191,6 @@ def impact_simulation(
     Raises:
         ValueError: If a parameter is out of range.
     """
-    if args.output_every < 0:
-        raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
     scheme = make_scheme(scheme_name, **scheme_parameters(args, scheme_name, compared))
     problem = impact_problem(
         dim=dim,

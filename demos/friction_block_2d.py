@@ -59,6 +59,8 @@ from mpi4py import MPI
 
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
+    add_output_every_argument,
+    check_method_arguments,
     finite_float,
     one_line_errors,
     scheme_from_arguments,
@@ -85,7 +87,7 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     )
     parser.add_argument("--E", type=finite_float, default=1e4, help="Young's modulus")
     parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
-    parser.add_argument("--output-every", type=int, default=10, help="XDMF every N steps")
+    add_output_every_argument(parser)
     parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
     parser.add_argument("--quiet", action="store_true", help="no line per step")
     return parser, parser.parse_args(argv)
@@ -97,6 +99,7 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
 
 # +
 def run(args) -> list[dict]:
+    check_method_arguments(args)
     problem = block_problem(
         friction=args.mu,
         v0=args.v0,

@@ -116,7 +116,13 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import HISTORY_COLUMNS, ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import add_method_arguments, one_line_errors, scheme_from_arguments
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    add_output_every_argument,
+    check_method_arguments,
+    one_line_errors,
+    scheme_from_arguments,
+)
 from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.plotting import latex_number
 
@@ -145,12 +151,7 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.005, t_end=1.0)
-    parser.add_argument(
-        "--output-every",
-        type=int,
-        default=10,
-        help="write solution.xdmf every this many steps (0: never)",
-    )
+    add_output_every_argument(parser)
     parser.add_argument(
         "--mesh", default=DEFAULT_MESH, help="gmsh .msh file of the ring (from meshes/ring_2d.py)"
     )
@@ -174,8 +175,7 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
     Raises:
         ValueError: If a parameter is out of range or the mesh cannot be read.
     """
-    if args.output_every < 0:
-        raise ValueError(f"--output-every must be >= 0, got {args.output_every}")
+    check_method_arguments(args)
     scheme = scheme_from_arguments(args)
     mesh, facet_tags = load_mesh(args.mesh)
     if mesh.geometry.dim != 2:

@@ -124,9 +124,20 @@ def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> 
     return make_scheme(name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
 
 
+def add_output_every_argument(parser: argparse.ArgumentParser, default: int = 10) -> None:
+    """Add ``--output-every N`` (checked by :func:`check_method_arguments`)."""
+    parser.add_argument(
+        "--output-every",
+        type=int,
+        default=default,
+        help="write solution.xdmf every this many steps (0: never)",
+    )
+
+
 def check_method_arguments(args: argparse.Namespace) -> None:
-    """Check the flags of :func:`add_method_arguments` (and of :func:`add_run_arguments`, if
-    present) before anything is computed, with the library's own checks and messages.
+    """Check the flags of :func:`add_method_arguments` (and of :func:`add_run_arguments` and
+    :func:`add_output_every_argument`, if present) before anything is computed, with the
+    library's own checks and messages.
 
     Raises:
         ValueError: Naming the first flag out of range.
@@ -142,6 +153,9 @@ def check_method_arguments(args: argparse.Namespace) -> None:
     every = getattr(args, "checkpoint_every", 0)
     if every < 0:
         raise ValueError(f"--checkpoint-every must be >= 0, got {every}")
+    every = getattr(args, "output_every", 0)
+    if every < 0:
+        raise ValueError(f"--output-every must be >= 0, got {every}")
 
 
 def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
