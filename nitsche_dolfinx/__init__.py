@@ -9,7 +9,13 @@ dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
 - :mod:`~nitsche_dolfinx.schemes`: theta, Newmark, Crank-Nicolson and the hybrid scheme;
 - :mod:`~nitsche_dolfinx.solver`: the PETSc SNES wrapper;
 - :mod:`~nitsche_dolfinx.diagnostics`: energies E and E_Theta, contact force;
-- :mod:`~nitsche_dolfinx.problem`: the problem object and the time loop;
+- :mod:`~nitsche_dolfinx.parameters`: the parameters of a run, validated once;
+- :mod:`~nitsche_dolfinx.model`: the problem object (the model and its terms);
+- :mod:`~nitsche_dolfinx.friction`: the guarded Newton and the output of Coulomb friction;
+- :mod:`~nitsche_dolfinx.stepper`, :mod:`~nitsche_dolfinx.mixed`: one time step (Nitsche and
+  penalty; the mixed method);
+- :mod:`~nitsche_dolfinx.simulation`: the run driver (history, fields, checkpoints, restarts);
+- :mod:`~nitsche_dolfinx.history`: the history of a run and its summary figures;
 - :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.shapes`: loading meshes, gmsh bodies;
 - :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`, :mod:`~nitsche_dolfinx.cases`;
 - :mod:`~nitsche_dolfinx.config`, :mod:`~nitsche_dolfinx.cli`: the ``nitsche-dolfinx`` command;
@@ -18,11 +24,13 @@ dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
 
 from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .diagnostics import BoundaryAverage
+from .history import HISTORY_COLUMNS, History
 from .material import Material
 from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
+from .model import ContactProblem
 from .obstacles import PlaneObstacle, SignedDistanceObstacle
 from .output import read_history
-from .problem import HISTORY_COLUMNS, ContactProblem, Simulation
+from .parameters import ParameterError
 from .schemes import (
     SCHEMES,
     CrankNicolson,
@@ -31,6 +39,7 @@ from .schemes import (
     ThetaScheme,
     make_scheme,
 )
+from .simulation import Simulation
 from .solver import SNESSolver, SolverError
 
 __version__ = "0.1.0"
@@ -42,10 +51,12 @@ __all__ = [
     "ContactProblem",
     "CrankNicolson",
     "HISTORY_COLUMNS",
+    "History",
     "HybridScheme",
     "Material",
     "NewmarkScheme",
     "NitscheContact",
+    "ParameterError",
     "PlaneObstacle",
     "SCHEMES",
     "SNESSolver",

@@ -1,12 +1,14 @@
 """Command-line pieces shared by the demos and the ``nitsche-dolfinx`` command: the method
-flags of SPEC section 6, the checkpoint flags, early checks, and errors reported as one line.
+flags of docs/method.md section 6, the checkpoint flags, early checks, and errors reported
+as one line.
 
 Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
 ``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--degree``, ``--dt``,
-``--t-end``); :func:`add_method_arguments` adds them with the demo's defaults,
-:func:`check_method_arguments` checks them before anything is computed and
-:func:`scheme_from_arguments` turns them into a scheme. :func:`add_run_arguments`
-adds ``--checkpoint-every`` and ``--restart``.
+``--t-end``); :func:`add_method_arguments` adds them with the demo's defaults and
+:func:`method_parameters` turns them into the validated parameter objects of
+:mod:`nitsche_dolfinx.parameters` before anything is computed. A bad value is
+reported under the flag that gave it (``--gamma0 0: ...``).
+:func:`add_run_arguments` adds ``--checkpoint-every`` and ``--restart``.
 
 :func:`one_line_errors` stops a demo with one line naming the problem, never a
 traceback, and an exit status that says what happened:
@@ -28,6 +30,7 @@ import argparse
 import contextlib
 import sys
 import traceback
+from typing import NamedTuple
 
 import numpy as np
 from mpi4py import MPI
@@ -35,21 +38,31 @@ from petsc4py import PETSc
 
 from .checkpoint import ERROR_AGREEMENT_SECONDS, RunInterrupted, all_ranks_reach
 from .output import ensure_directory
-from .problem import check_time_parameters
+from .parameters import (
+    Discretisation,
+    NitscheParameters,
+    OutputParameters,
+    ParameterError,
+    TimeStepping,
+)
 from .schemes import SCHEMES, TimeScheme, make_scheme
 from .solver import SolverError
 
 __all__ = [
     "ERROR_AGREEMENT_SECONDS",
+    "MethodParameters",
     "add_method_arguments",
+    "add_output_every_argument",
     "add_run_arguments",
-    "check_method_arguments",
     "check_output_folder",
     "finite_float",
+    "method_parameters",
     "one_line_errors",
     "petsc_option",
-    "scheme_from_arguments",
 ]
+
+#: Flags whose destination is not the parameter's name.
+_DESTINATIONS = {"friction": "mu"}
 
 
 def finite_float(text: str) -> float:
@@ -82,7 +95,7 @@ def add_method_arguments(
     beta: float = 0.25,
     gamma: float = 0.5,
 ) -> None:
-    """Add the scheme and Nitsche flags of SPEC section 6 with the given defaults."""
+    """Add the scheme and Nitsche flags of docs/method.md section 6 with the given defaults."""
     parser.add_argument("--scheme", choices=SCHEMES, default="hybrid", help="time scheme")
     parser.add_argument("--theta", type=finite_float, default=1.0, help="theta of the theta-scheme")
     parser.add_argument("--beta", type=finite_float, default=beta, help="Newmark beta")
@@ -124,6 +137,16 @@ def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> 
     return make_scheme(name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
 
 
+class MethodParameters(NamedTuple):
+    """The validated parameters of a demo's flags."""
+
+    scheme: TimeScheme
+    time: TimeStepping
+    nitsche: NitscheParameters
+    discretisation: Discretisation
+    output: OutputParameters
+
+
 def add_output_every_argument(parser: argparse.ArgumentParser, default: int = 10) -> None:
     """Add ``--output-every N`` (checked by :func:`check_method_arguments`)."""
     parser.add_argument(
@@ -134,28 +157,30 @@ def add_output_every_argument(parser: argparse.ArgumentParser, default: int = 10
     )
 
 
-def check_method_arguments(args: argparse.Namespace) -> None:
-    """Check the flags of :func:`add_method_arguments` (and of :func:`add_run_arguments` and
-    :func:`add_output_every_argument`, if present) before anything is computed, with the
-    library's own checks and messages.
+def method_parameters(args: argparse.Namespace) -> MethodParameters:
+    """The parameter objects of the flags of :func:`add_method_arguments` (and of ``--mu``,
+    ``--method``, ``--mass``, :func:`add_run_arguments` and
+    :func:`add_output_every_argument`, where the demo has them), checked before anything
+    is computed by the library's own checks.
 
     Raises:
-        ValueError: Naming the first flag out of range.
+        ParameterError: For the first value out of range (:func:`one_line_errors` names
+            its flag).
     """
-    check_time_parameters(args.dt, args.t_end)
-    if not args.gamma0 > 0:
-        raise ValueError(
-            f"the Nitsche parameter gamma0 must be positive, got gamma0={args.gamma0!r}"
-        )
-    if args.degree not in (1, 2):
-        raise ValueError(f"degree must be 1 or 2, got degree={args.degree!r}")
-    scheme_from_arguments(args)  # theta, beta and gamma in their ranges
-    every = getattr(args, "checkpoint_every", 0)
-    if every < 0:
-        raise ValueError(f"--checkpoint-every must be >= 0, got {every}")
-    every = getattr(args, "output_every", 0)
-    if every < 0:
-        raise ValueError(f"--output-every must be >= 0, got {every}")
+    return MethodParameters(
+        scheme=scheme_from_arguments(args),
+        time=TimeStepping(args.dt, args.t_end),
+        nitsche=NitscheParameters(
+            args.gamma0,
+            args.nitsche_theta,
+            getattr(args, "mu", None),
+            getattr(args, "method", "nitsche"),
+        ),
+        discretisation=Discretisation(args.degree, getattr(args, "mass", "consistent")),
+        output=OutputParameters(
+            getattr(args, "output_every", 0), getattr(args, "checkpoint_every", 0)
+        ),
+    )
 
 
 def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
@@ -164,16 +189,23 @@ def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
 
 
 @contextlib.contextmanager
-def one_line_errors(parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_SECONDS):
+def one_line_errors(
+    parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_SECONDS, flags=None
+):
     """Report an error of the block as one line and exit (see the module docstring).
 
     Args:
         parser: The demo's parser (its ``prog`` starts the line), or the program name.
+        flags: The parser whose flags name the parameters (default: ``parser``); a
+            :class:`~nitsche_dolfinx.parameters.ParameterError` is reported under the
+            flag that set the value.
         comm: The communicator of the run.
         grace: Seconds a failing rank waits for the others to fail too before it
             decides that the error is its own and aborts the job.
     """
     prog = parser if isinstance(parser, str) else parser.prog
+    if flags is None and not isinstance(parser, str):
+        flags = parser
     # failures are compared on a communicator of their own, so that this never matches
     # a collective operation that the other ranks are waiting in
     errors = comm.Dup() if comm.size > 1 else None
@@ -182,6 +214,8 @@ def one_line_errors(parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_
     except SystemExit:
         raise
     except BaseException as error:  # noqa: BLE001 - every error ends the run, one way or another
+        if isinstance(error, ParameterError) and flags is not None:
+            error = _under_its_flag(error, flags)
         status, message = _status_and_message(error)
         if errors is None or all_ranks_reach(errors, grace):
             if comm.rank == 0:
@@ -195,6 +229,17 @@ def one_line_errors(parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_
         comm.Abort(status)
     if errors is not None:
         errors.Free()
+
+
+def _under_its_flag(error: ParameterError, parser: argparse.ArgumentParser) -> ParameterError:
+    """The error named by the flag that set the parameter, if the parser has one."""
+    dest = _DESTINATIONS.get(error.name, error.name)
+    for action in parser._actions:
+        if action.dest == dest and action.option_strings:
+            value = error.value
+            shown = f"{value:g}" if isinstance(value, float) else str(value)
+            return error.named(f"{action.option_strings[0]} {shown}")
+    return error
 
 
 #: Errors in the user's input or files: one line, exit status 2.

@@ -1,4 +1,4 @@
-"""The test cases of SPEC section 5, ready to run: used by the demos, tests and benchmarks."""
+"""The test cases of docs/method.md section 5, ready to run: for the demos, tests and benchmarks."""
 
 from __future__ import annotations
 
@@ -8,12 +8,12 @@ from mpi4py import MPI
 from .diagnostics import BoundaryAverage
 from .material import Material
 from .meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
+from .model import ContactProblem
 from .obstacles import PlaneObstacle
-from .problem import ContactProblem
+from .simulation import Simulation
 
 __all__ = [
     "BAR_COLUMNS",
-    "BAR_METHODS",
     "add_bar_probes",
     "bar_problem",
     "bar_simulation",
@@ -22,10 +22,7 @@ __all__ = [
     "impact_problem",
 ]
 
-#: Contact methods of the bar: Nitsche, penalty, and the mixed method (CN only).
-BAR_METHODS = ("nitsche", "penalty", "mixed")
-
-#: Columns of the bar demo's ``history.csv`` (SPEC section 6).
+#: Columns of the bar demo's ``history.csv`` (docs/method.md section 6).
 BAR_COLUMNS = (
     "t",
     "u_contact",
@@ -47,8 +44,7 @@ def bar_problem(
     mass: str = "consistent",
 ) -> ContactProblem:
     """The 1D bar with multiple impacts: (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0,
-    u0 = 1/2 - x/2, v0 = 0. ``method`` "mixed" gives the Nitsche problem, whose obstacle
-    :class:`~nitsche_dolfinx.mixed.MixedSimulation` then treats by a multiplier."""
+    u0 = 1/2 - x/2, v0 = 0; ``method`` is that of :class:`ContactProblem`."""
     mesh, tags = bar_mesh(nx, comm=comm)
     problem = ContactProblem(
         mesh,
@@ -57,7 +53,7 @@ def bar_problem(
         degree=degree,
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,
-        method="nitsche" if method == "mixed" else method,
+        method=method,
         mass=mass,
     )
     problem.add_dirichlet(BAR_CLAMPED, 0.0)
@@ -75,26 +71,11 @@ def bar_simulation(
     comm=MPI.COMM_WORLD,
     **problem_parameters,
 ):
-    """The bar ready to run with ``method`` (see :data:`BAR_METHODS`), its probes added.
-
-    The mixed method is time-discretised by Crank-Nicolson only
-    (:class:`~nitsche_dolfinx.mixed.MixedSimulation`); ``scheme`` must then be CN.
-    """
-    from .mixed import MixedSimulation
-    from .problem import Simulation
-
-    if method not in BAR_METHODS:
-        raise ValueError(f"unknown method {method!r}; choose one of {', '.join(BAR_METHODS)}")
+    """The bar ready to run with ``method`` (one of
+    :data:`~nitsche_dolfinx.parameters.CONTACT_METHODS`; the mixed method takes
+    Crank-Nicolson only), its probes added."""
     problem = bar_problem(comm=comm, method=method, mass=mass, **problem_parameters)
-    if method == "mixed":
-        if scheme.name != "cn":
-            raise ValueError(
-                f"the mixed method is time-discretised by Crank-Nicolson only, got --scheme "
-                f"{scheme.name}"
-            )
-        simulation = MixedSimulation(problem, dt=dt, t_end=t_end)
-    else:
-        simulation = Simulation(problem, scheme, dt=dt, t_end=t_end)
+    simulation = Simulation(problem, scheme, dt=dt, t_end=t_end)
     add_bar_probes(simulation)
     return simulation
 
@@ -102,15 +83,11 @@ def bar_simulation(
 def add_bar_probes(simulation) -> None:
     """History columns at x = 0: ``u_contact``, ``v_contact`` and ``sigma_contact`` (lambda_h)."""
     problem = simulation.problem
-    contact = problem.contacts[0]
     ds = problem.ds(BAR_CONTACT)
     mesh = problem.mesh
     simulation.add_probe("u_contact", BoundaryAverage(mesh, simulation.u[0], ds))
     simulation.add_probe("v_contact", BoundaryAverage(mesh, simulation.v[0], ds))
-    # the mixed method's multiplier is the pressure; Nitsche's is -(1/gamma_h)[P_gamma(u)]_+
-    pressure = getattr(simulation, "lagrange_multiplier", None)
-    if pressure is None:
-        pressure = contact.pressure(simulation.u)
+    pressure = simulation.contact_pressure()  # lambda_h, or the mixed method's multiplier
     simulation.add_probe("sigma_contact", BoundaryAverage(mesh, pressure, ds))
 
 

@@ -1,10 +1,12 @@
 """Surviving a run: checkpoints, restarts, and clean stops on SIGINT or SIGTERM.
 
 A checkpoint is a folder (``OUT/checkpoint`` for :meth:`Simulation.run
-<nitsche_dolfinx.problem.Simulation.run>`) holding
+<nitsche_dolfinx.simulation.Simulation.run>`) holding
 
 - ``state-<step>.rank<r>.npz``, one per rank: the coordinates of the nodes the
-  rank owns and the values of the displacement, velocity and acceleration there;
+  rank owns and the values there of every function the stepper's next step
+  depends on (displacement, velocity, acceleration; the mixed method's multiplier
+  with the coordinates of its own nodes);
 - ``checkpoint.json``, written by rank 0 once every rank has written its file:
   the step, t, the number of ranks and dofs, dt, the scheme, the Nitsche
   parameters and the history columns of the run.
@@ -42,6 +44,9 @@ from mpi4py import MPI
 
 __all__ = [
     "CHECKPOINT_FILE",
+    "load_state",
+    "node_coordinates",
+    "save_state",
     "ERROR_AGREEMENT_SECONDS",
     "CheckpointError",
     "RunInterrupted",
@@ -292,6 +297,109 @@ def match_points(saved: np.ndarray, points: np.ndarray, tolerance: float) -> np.
     found = index >= 0
     distance = np.abs(saved[index[found]] - points[found]).max(axis=1, initial=0.0)
     index[np.flatnonzero(found)[distance > tolerance]] = -1
+    return index
+
+
+def node_coordinates(V) -> np.ndarray:
+    """The coordinates of the nodes of a Lagrange space, one row per block of its dof
+    array (owned, then ghosts): each coordinate interpolated into the space, which works
+    for every space on every dolfinx (``tabulate_dof_coordinates`` refuses 1D vector
+    spaces in 0.5)."""
+    from dolfinx import fem
+
+    field = fem.Function(V)
+    components = field.ufl_shape[0] if field.ufl_shape else 0
+    bs = V.dofmap.index_map_bs
+    columns = []
+    for d in range(V.mesh.geometry.dim):
+        field.interpolate(lambda x, d=d: np.tile(x[d], (components, 1)) if components else x[d])
+        field.x.scatter_forward()
+        columns.append(field.x.array.reshape(-1, bs)[:, 0].copy())
+    return np.column_stack(columns)
+
+
+def _points_key(name: str, function, first_space) -> str:
+    """The array of node coordinates of ``function``: shared by the functions on the
+    first space, its own for a function on another space."""
+    return "points" if function.function_space is first_space else f"{name}.points"
+
+
+def save_state(stepper, folder: str, columns=None) -> SavedState:
+    """Save the stepper's current time level in the checkpoint folder ``folder``
+    (collective); ``columns``, the history columns of the run, are recorded so that a
+    restart writing other columns is refused."""
+    functions = stepper.checkpoint_functions()
+    first_space = next(iter(functions.values())).function_space
+    arrays = {}
+    for name, f in functions.items():
+        V = f.function_space
+        owned, bs = V.dofmap.index_map.size_local, V.dofmap.index_map_bs
+        arrays[name] = f.x.array.reshape(-1, bs)[:owned]
+        key = _points_key(name, f, first_space)
+        if key not in arrays:
+            arrays[key] = node_coordinates(V)[:owned]
+    metadata = {
+        **stepper.describe(),
+        "newton_iterations": int(stepper.newton_iterations),
+        "columns": list(columns) if columns is not None else None,
+    }
+    return write_checkpoint(folder, stepper.comm, stepper.step_index, stepper.t, arrays, metadata)
+
+
+def load_state(stepper, folder: str, columns=None) -> SavedState:
+    """Restore the time level saved in ``folder`` by :func:`save_state` (collective).
+
+    The values are matched to the dofs by the coordinates of their nodes, so any
+    partition of the same mesh, on any number of ranks, reloads them.
+
+    Raises:
+        CheckpointError: On every rank, if the checkpoint is missing or unreadable, or
+            was written for another mesh, space, scheme, time step, Nitsche parameters
+            or set of history columns, or lies past t_end.
+    """
+    metadata, arrays = read_checkpoint(folder, stepper.comm)
+    for key, value in stepper.describe().items():
+        if metadata.get(key) != value:
+            raise CheckpointError(
+                f"checkpoint {folder!r} does not fit this run: its {key} is "
+                f"{metadata.get(key)!r}, this run's is {value!r}"
+            )
+    saved_columns = metadata.get("columns")
+    if columns is not None and saved_columns is not None and saved_columns != list(columns):
+        raise CheckpointError(
+            f"checkpoint {folder!r} was written by a run with the history columns "
+            f"{','.join(saved_columns)}, this run writes {','.join(columns)}"
+        )
+    if metadata["step"] > stepper.num_steps:
+        raise CheckpointError(
+            f"checkpoint {folder!r} is at t = {metadata['t']:.6g}, past t_end = {stepper.t_end:g}"
+        )
+    functions = stepper.checkpoint_functions()
+    first_space = next(iter(functions.values())).function_space
+    for name, function in functions.items():
+        key = _points_key(name, function, first_space)
+        index = _matching_nodes(stepper.comm, folder, arrays[key], function.function_space)
+        bs = function.function_space.dofmap.index_map_bs
+        function.x.array.reshape(-1, bs)[:] = arrays[name][index]
+    stepper.restore(
+        float(metadata["t"]), int(metadata["step"]), int(metadata.get("newton_iterations", 0))
+    )
+    return SavedState(str(folder), stepper.step_index, stepper.t)
+
+
+def _matching_nodes(comm, folder, saved_points, V) -> np.ndarray:
+    """For each node of V on this rank, the row of the saved nodes at the same place."""
+    points = node_coordinates(V)
+    extent = comm.allreduce(float(np.abs(points).max(initial=0.0)), op=MPI.MAX)
+    index = match_points(saved_points, points, 1e-8 * max(extent, 1.0))
+    missing = int(np.count_nonzero(index < 0))
+    agree(
+        comm,
+        f"checkpoint {folder!r} does not fit this run: {missing} of its nodes are not "
+        "nodes of this mesh (another mesh?)"
+        if missing
+        else None,
+    )
     return index
 
 

@@ -17,7 +17,8 @@ import sys
 __all__ = ["main"]
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
+    """The command's parser and that of ``run`` (whose flags name parameters)."""
     parser = argparse.ArgumentParser(
         prog="nitsche-dolfinx",
         description="Dynamic contact in elastodynamics by Nitsche's method (FEniCSx).",
@@ -43,27 +44,28 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="continue from the checkpoint in OUT/checkpoint",
     )
-    return parser
+    return parser, run
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``nitsche-dolfinx`` console script."""
-    args = _parser().parse_args(argv)
+    parser, run_parser = _parser()
+    args = parser.parse_args(argv)
     from mpi4py import MPI
 
     from .arguments import check_output_folder, one_line_errors
-    from .config import build_simulation, load_config
+    from .config import build_simulation, load_config, output_parameters
+    from .parameters import OutputParameters
 
     comm = MPI.COMM_WORLD
-    with one_line_errors("nitsche-dolfinx", comm):
+    with one_line_errors("nitsche-dolfinx", comm, flags=run_parser):
         config = load_config(args.config)
-        output = config.get("output", {})
-        out = args.out or output.get("dir") or os.path.join("out", "run")
-        every = args.checkpoint_every
-        if every is None:
-            every = output.get("checkpoint_every", 0)
-        if every < 0:
-            raise ValueError(f"--checkpoint-every must be >= 0, got {every}")
+        # [output] named as in the TOML file, then --checkpoint-every as a flag
+        overridden = args.checkpoint_every is not None
+        output = output_parameters(config, args.config, 0 if overridden else None)
+        if overridden:
+            output = OutputParameters(output.output_every, args.checkpoint_every)
+        out = args.out or config.get("output", {}).get("dir") or os.path.join("out", "run")
         if not args.check:
             check_output_folder(out, comm)
         simulation = build_simulation(
@@ -75,8 +77,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         simulation.run(
             out=out,
-            output_every=output.get("every", 0),
-            checkpoint_every=every,
+            output_every=output.output_every,
+            checkpoint_every=output.checkpoint_every,
             restart=args.restart,
         )
     if comm.rank == 0 and not args.quiet:

@@ -24,7 +24,6 @@ __all__ = [
     "apply_lifting",
     "cell_name",
     "collapse",
-    "create_matrix",
     "create_vector",
     "expression",
     "dofmap_array",
@@ -38,7 +37,6 @@ __all__ = [
     "own_symbols",
     "petsc_vector",
     "read_gmsh_file",
-    "read_meshtags",
     "set_bc",
     "set_divergence_tolerance",
     "trapezoid",
@@ -164,11 +162,6 @@ def create_vector(V) -> PETSc.Vec:
     if hasattr(la, "create_petsc_vector"):  # <= 0.9
         return la.create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs)
     return fem_petsc.create_vector(V)  # >= 0.10: takes function spaces
-
-
-def create_matrix(a) -> PETSc.Mat:
-    """A PETSc matrix with the sparsity of the compiled bilinear form ``a``."""
-    return fem_petsc.create_matrix(a)
 
 
 def apply_lifting(b: PETSc.Vec, a, bcs, x0=None, alpha: float = 1.0) -> None:
@@ -304,16 +297,6 @@ def write_meshtags(xdmf, tags, mesh) -> None:
         xdmf.write_meshtags(tags, mesh.geometry)
     except TypeError:  # 0.5: the geometry is taken from the tags' mesh
         xdmf.write_meshtags(tags)
-
-
-def read_meshtags(xdmf, mesh, name: str):
-    """Read the mesh tags called ``name`` from an open XDMFFile."""
-    return xdmf.read_meshtags(mesh, name)
-
-
-def create_connectivity(mesh, d0: int, d1: int) -> None:
-    """Build the d0 -> d1 topology connectivity."""
-    mesh.topology.create_connectivity(d0, d1)
 
 
 # -- plotting --------------------------------------------------------------------------

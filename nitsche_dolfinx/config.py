@@ -46,10 +46,18 @@ scheme, time step, Nitsche parameter, obstacles) before it reads the mesh.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from typing import Any
 
-__all__ = ["ConfigError", "SCHEMA", "build_simulation", "load_config", "validate"]
+__all__ = [
+    "ConfigError",
+    "SCHEMA",
+    "build_simulation",
+    "load_config",
+    "output_parameters",
+    "validate",
+]
 
 
 class ConfigError(ValueError):
@@ -201,8 +209,56 @@ def _has_type(value, expected) -> bool:
     return isinstance(value, expected)
 
 
+#: Where each parameter of :mod:`nitsche_dolfinx.parameters` is set in a configuration.
+_KEYS = {
+    "gamma0": "[nitsche] gamma0",
+    "nitsche_theta": "[nitsche] theta",
+    "scheme": "[scheme] name",
+    "dt": "[scheme] dt",
+    "t_end": "[scheme] t_end",
+    "theta": "[scheme] theta",
+    "beta": "[scheme] beta",
+    "gamma": "[scheme] gamma",
+    "degree": "[mesh] degree",
+    "output_every": "[output] every",
+    "checkpoint_every": "[output] checkpoint_every",
+}
+
+
+@contextlib.contextmanager
+def _reported_at(where: str, source: str):
+    """Turn a ValueError of the block into a :class:`ConfigError` naming the table (and,
+    for a :class:`~nitsche_dolfinx.parameters.ParameterError`, the key and value)."""
+    from .parameters import ParameterError
+
+    try:
+        yield
+    except ConfigError:
+        raise
+    except ParameterError as error:
+        key = _KEYS.get(error.name, f"{where} {error.name}")
+        raise ConfigError(f"{source}: {error.named(f'{key} = {error.value!r}')}") from None
+    except ValueError as error:
+        raise ConfigError(f"{source}: {where} {error}") from None
+
+
+def output_parameters(config: dict, source: str = "config", checkpoint_every=None):
+    """The :class:`~nitsche_dolfinx.parameters.OutputParameters` of ``[output]``
+    (``checkpoint_every`` given: it overrides the table's)."""
+    from .parameters import OutputParameters
+
+    output = config.get("output", {})
+    if checkpoint_every is None:
+        checkpoint_every = output.get("checkpoint_every", 0)
+    with _reported_at("[output]", source):
+        return OutputParameters(output.get("every", 0), checkpoint_every)
+
+
 def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
-    """The :class:`~nitsche_dolfinx.problem.Simulation` a validated configuration describes.
+    """The :class:`~nitsche_dolfinx.simulation.Simulation` a validated configuration describes.
+
+    Every value is checked by the parameter objects of :mod:`nitsche_dolfinx.parameters`
+    before the mesh is read.
 
     Args:
         config: A configuration checked by :func:`validate` (e.g. from :func:`load_config`).
@@ -215,82 +271,79 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     """
     from mpi4py import MPI
 
-    from .material import Material
     from .meshes import load_mesh
-    from .obstacles import PlaneObstacle
-    from .problem import ContactProblem, Simulation, check_time_parameters
+    from .model import ContactProblem
+    from .parameters import Discretisation, NitscheParameters, TimeStepping
     from .schemes import make_scheme
+    from .simulation import Simulation
 
     comm = comm or MPI.COMM_WORLD
-    where = "[material]"
-    try:
-        # the values first, the mesh last: a bad value stops the run before any reading
-        m = config["material"]
-        rho = m.get("rho", 1.0)
-        if "E" in m:
-            material = Material(E=m["E"], nu=m["nu"], rho=rho)
-        else:
-            material = Material.from_lame(m["lmbda"], m["mu"], rho=rho)
-        where = "[scheme]"
-        s = config["scheme"]
+    # the values first, the mesh last: a bad value stops the run before any reading
+    material = _material(config, source)
+    s, nitsche, mesh_table = config["scheme"], config.get("nitsche", {}), config["mesh"]
+    with _reported_at("[scheme]", source):
         scheme = make_scheme(
             s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
         )
-        check_time_parameters(s["dt"], s["t_end"])
-        where = "[nitsche]"
-        nitsche = config.get("nitsche", {})
-        gamma0 = nitsche.get("gamma0", 1e-3)
-        if not gamma0 > 0:
-            raise ValueError(
-                f"the Nitsche parameter gamma0 must be positive, got gamma0={gamma0!r}"
-            )
-        obstacles = []
-        for index, obstacle in enumerate(config.get("obstacle", [])):
-            where = f"[[obstacle]] #{index + 1}"
-            obstacles.append(PlaneObstacle(obstacle["point"], obstacle["normal"]))
-        where = "[output]"
-        every = config.get("output", {}).get("checkpoint_every", 0)
-        if every < 0:
-            raise ValueError(f"checkpoint_every must be >= 0, got {every}")
-        where = "[mesh]"
-        mesh_table = config["mesh"]
+        time_stepping = TimeStepping(s["dt"], s["t_end"])
+    with _reported_at("[nitsche]", source):
+        contact = NitscheParameters(nitsche.get("gamma0", 1e-3), nitsche.get("theta", 1.0))
+    with _reported_at("[mesh]", source):
+        discretisation = Discretisation(mesh_table.get("degree", 1))
+    obstacles = _obstacles(config, source)
+    output_parameters(config, source)
+    with _reported_at("[mesh]", source):
         mesh, facet_tags = load_mesh(mesh_table["file"], gdim=mesh_table.get("gdim"), comm=comm)
-        where = "[nitsche]"
-        problem = ContactProblem(
-            mesh,
-            facet_tags,
-            material,
-            degree=mesh_table.get("degree", 1),
-            gamma0=gamma0,
-            nitsche_theta=nitsche.get("theta", 1.0),
-        )
-        for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
-            where = f"[[obstacle]] #{index + 1}"
-            problem.add_obstacle(obstacle, table["tag"])
-        for index, dirichlet in enumerate(config.get("dirichlet", [])):
-            where = f"[[dirichlet]] #{index + 1}"
-            problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])
-        for index, traction in enumerate(config.get("traction", [])):
-            where = f"[[traction]] #{index + 1}"
-            problem.add_traction(traction["tag"], traction["value"])
-        if "body_force" in config:
-            where = "[body_force]"
-            problem.add_body_force(config["body_force"]["value"])
-        where = "[initial]"
-        initial = config.get("initial", {})
-        problem.set_initial_conditions(
-            displacement=initial.get("displacement"), velocity=initial.get("velocity")
-        )
-        where = "[scheme]"
+    problem = ContactProblem(mesh, facet_tags, material, **vars(contact), **vars(discretisation))
+    _add_terms(problem, config, obstacles, source)
+    with _reported_at("[scheme]", source):
         return Simulation(
             problem,
             scheme,
-            dt=s["dt"],
-            t_end=s["t_end"],
+            time_stepping.dt,
+            time_stepping.t_end,
             petsc_options=config.get("petsc"),
             progress=progress,
         )
-    except ConfigError:
-        raise
-    except ValueError as error:
-        raise ConfigError(f"{source}: {where} {error}") from None
+
+
+def _material(config: dict, source: str):
+    from .material import Material
+
+    m = config["material"]
+    rho = m.get("rho", 1.0)
+    with _reported_at("[material]", source):
+        if "E" in m:
+            return Material(E=m["E"], nu=m["nu"], rho=rho)
+        return Material.from_lame(m["lmbda"], m["mu"], rho=rho)
+
+
+def _obstacles(config: dict, source: str) -> list:
+    from .obstacles import PlaneObstacle
+
+    obstacles = []
+    for index, obstacle in enumerate(config.get("obstacle", [])):
+        with _reported_at(f"[[obstacle]] #{index + 1}", source):
+            obstacles.append(PlaneObstacle(obstacle["point"], obstacle["normal"]))
+    return obstacles
+
+
+def _add_terms(problem, config: dict, obstacles: list, source: str) -> None:
+    """The obstacles, Dirichlet conditions, loads and initial conditions of ``config``."""
+    for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
+        with _reported_at(f"[[obstacle]] #{index + 1}", source):
+            problem.add_obstacle(obstacle, table["tag"])
+    for index, dirichlet in enumerate(config.get("dirichlet", [])):
+        with _reported_at(f"[[dirichlet]] #{index + 1}", source):
+            problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])
+    for index, traction in enumerate(config.get("traction", [])):
+        with _reported_at(f"[[traction]] #{index + 1}", source):
+            problem.add_traction(traction["tag"], traction["value"])
+    if "body_force" in config:
+        with _reported_at("[body_force]", source):
+            problem.add_body_force(config["body_force"]["value"])
+    initial = config.get("initial", {})
+    with _reported_at("[initial]", source):
+        problem.set_initial_conditions(
+            displacement=initial.get("displacement"), velocity=initial.get("velocity")
+        )

@@ -78,7 +78,7 @@ def guarded_projection(x, radius, reference, reference_radius):
     direction to the other across the thin stick band. The guarded law agrees with
     Coulomb's [x]_r wherever :func:`guard_activity` is 0; with the reference at the point
     itself (x_ref = x, r_ref = r) it is [x]_r everywhere.
-    :class:`~nitsche_dolfinx.problem.Simulation` moves the reference to the guarded
+    :class:`~nitsche_dolfinx.friction.GuardedNewton` moves the reference to the guarded
     solution until the two agree.
     """
     switch = ufl.conditional(ufl.gt(radius, 0), 1, 0)

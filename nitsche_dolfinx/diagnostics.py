@@ -1,4 +1,4 @@
-"""Energies and contact diagnostics of SPEC section 4, reduced over MPI every step.
+"""Energies and contact diagnostics of docs/method.md section 4, reduced over MPI every step.
 
     E^h       = 1/2 ||sqrt(rho) u'||^2 + 1/2 a(u, u) - L(u)
     E_Theta^h = E^h - Theta/2 ( ||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P_gamma(u)]_+||^2 )
@@ -108,7 +108,7 @@ class Diagnostics:
     """Energies, contact force, contact area and penetration of a displacement/velocity pair.
 
     Args:
-        model: The :class:`~nitsche_dolfinx.problem.ContactProblem`.
+        model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
         u: Displacement at the current time level.
         v: Velocity at the current time level.
     """

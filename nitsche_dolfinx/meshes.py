@@ -59,7 +59,7 @@ def cell_diameter(mesh) -> fem.Function:
 def tag_facets(mesh, markers: dict[int, callable]):
     """Facet tags from geometric markers: ``{tag: lambda x: ...}`` on boundary facets."""
     fdim = mesh.topology.dim - 1
-    compat.create_connectivity(mesh, fdim, mesh.topology.dim)
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
     facets, values = [], []
     for tag, marker in markers.items():
         found = dmesh.locate_entities_boundary(mesh, fdim, marker)
@@ -197,8 +197,8 @@ def _load_xdmf(path, comm, mesh_name, facet_tags_name):
 
     with XDMFFile(comm, path, "r") as xdmf:
         mesh = xdmf.read_mesh(name=mesh_name)
-        compat.create_connectivity(mesh, mesh.topology.dim - 1, mesh.topology.dim)
-        facet_tags = compat.read_meshtags(xdmf, mesh, facet_tags_name)
+        mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+        facet_tags = xdmf.read_meshtags(mesh, facet_tags_name)
     return mesh, facet_tags
 
 

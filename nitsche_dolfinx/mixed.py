@@ -21,31 +21,35 @@ with ``mass="redistributed"`` it is the modified mass method.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 import ufl
 from dolfinx import fem
 
 from . import compat
+from .checkpoint import node_coordinates
 from .contact import positive_part
 from .diagnostics import assemble_global
-from .problem import ContactProblem, _massless_velocity, check_time_parameters
+from .model import ContactProblem
+from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
 from .solver import SNESSolver
+from .stepper import (
+    checkpoint_description,
+    initial_acceleration,
+    interpolate_initial,
+    massless_velocity,
+)
 
-__all__ = ["MixedSimulation"]
+__all__ = ["MixedStepper"]
 
 
 def _node_keys(V) -> np.ndarray:
     """(coordinates..., component) of every local dof of V, for matching two numberings."""
-    field = fem.Function(V)
-    components = field.ufl_shape[0] if field.ufl_shape else 0
-    keys = []
-    for d in range(V.mesh.geometry.dim):
-        field.interpolate(lambda x, d=d: np.tile(x[d], (components, 1)) if components else x[d])
-        keys.append(field.x.array.copy())
+    points = node_coordinates(V)
     bs = V.dofmap.index_map_bs
-    keys.append(np.tile(np.arange(bs), field.x.array.size // bs))
+    keys = np.repeat(points, bs, axis=0).T.tolist() + [np.tile(np.arange(bs), len(points))]
     return np.round(np.array(keys), 12)
 
 
@@ -61,25 +65,37 @@ def _matching_dofs(target, source) -> np.ndarray:
     return permutation
 
 
-class MixedSimulation:
-    """Crank-Nicolson for elastodynamics with contact by a Lagrange multiplier.
+class MixedStepper:
+    """Crank-Nicolson steps of a :class:`~nitsche_dolfinx.model.ContactProblem` whose
+    method is ``"mixed"``: contact by a Lagrange multiplier, one obstacle.
 
-    Takes a :class:`~nitsche_dolfinx.problem.ContactProblem` with one obstacle (its
-    contact method is ignored: the multiplier replaces it) and offers the same
-    ``run``, ``add_probe`` and history columns as
-    :class:`~nitsche_dolfinx.problem.Simulation`. ``lagrange_multiplier`` is the
-    UFL expression of lambda (the contact pressure) for probes.
+    A :class:`~nitsche_dolfinx.stepper.Stepper`: :class:`~nitsche_dolfinx.simulation.Simulation`
+    builds it for a mixed problem and runs it like any other (history, fields,
+    checkpoints, restarts). :meth:`contact_pressure` is lambda, the multiplier.
     """
 
-    def __init__(self, problem: ContactProblem, dt: float, t_end: float, petsc_options=None):
+    def __init__(
+        self,
+        problem: ContactProblem,
+        scheme,
+        time_stepping: TimeStepping,
+        petsc_options: dict[str, Any] | None = None,
+    ):
+        if not isinstance(scheme, CrankNicolson):
+            raise ParameterError(
+                "scheme",
+                scheme.describe(),
+                "the mixed method is time-discretised by Crank-Nicolson only",
+            )
         if len(problem.contacts) != 1:
-            raise ValueError("the mixed method takes exactly one obstacle")
+            raise ParameterError(
+                "obstacles", len(problem.contacts), "the mixed method takes exactly one obstacle"
+            )
         if any(v.time_dependent or np.any(v.value_at(0.0)) for _, v in problem.dirichlet):
             raise ValueError("the mixed method supports homogeneous Dirichlet values only")
-        check_time_parameters(dt, t_end)
-        self.problem, self.dt, self.t_end = problem, float(dt), float(t_end)
-        self.num_steps = int(round(self.t_end / self.dt))
-        self.scheme = CrankNicolson()
+        self.problem, self.scheme = problem, scheme
+        self.dt, self.t_end = time_stepping.dt, time_stepping.t_end
+        self.num_steps = time_stepping.num_steps
         self.comm = problem.mesh.comm
         mesh, gdim = problem.mesh, problem.gdim
         contact, tag = problem.contacts[0], problem.contact_tags[0]
@@ -90,7 +106,7 @@ class MixedSimulation:
         )
         self.W = W
         V0, u_dofs = compat.collapse(W.sub(0))
-        Q, _ = compat.collapse(W.sub(1))
+        Q, lambda_dofs = compat.collapse(W.sub(1))
         # u, v and a live on the problem's space (the collapsed one may differ in its
         # numbering, and is scalar for a 1D vector part from dolfinx 0.7): match the dofs
         V = problem.V
@@ -101,7 +117,10 @@ class MixedSimulation:
         self.x = fem.Function(W)  # the unknown (a^{n+1}, lambda^{n+1})
         w, lam = ufl.split(self.x)
         test_v, test_mu = ufl.TestFunctions(W)
-        self.lagrange_multiplier = lam
+        self._lambda = lam
+        # the multiplier on its own space, for checkpoints (the next step starts from it)
+        self.multiplier = fem.Function(Q, name="multiplier")
+        self._lambda_index = np.asarray(lambda_dofs)
 
         # Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C
         bcs = []
@@ -145,8 +164,7 @@ class MixedSimulation:
             fem.form(-lam * contact.ds),
         ]
         self._massless = problem.massless_dofs()
-        self.t, self.step_index, self.newton_iterations = 0.0, 0, 0
-        self._probes = {}
+        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
         self._initialize()
 
     def _mass_diagonal_on_W(self):
@@ -171,51 +189,23 @@ class MixedSimulation:
         return value
 
     def _initialize(self) -> None:
+        """u0, v0 and a0 from M a0 = L(0) - K u0: the body starts apart from the obstacle
+        with the multiplier zero."""
         problem = self.problem
-        gdim = problem.gdim
-        for target, value in (
-            (self.u, problem.initial_displacement),
-            (self.v, problem.initial_velocity),
-        ):
-            if value is None:
-                target.x.array[:] = 0.0
-            elif callable(value):
-                target.interpolate(
-                    lambda x, f=value: np.asarray(f(x), dtype=float).reshape(gdim, -1)
-                )
-            else:
-                target.x.array.reshape(-1, gdim)[:] = np.asarray(value, dtype=float)
-        # consistent initial acceleration with the initial multiplier: start from rest in
-        # the bulk (M a0 = L(0) - K u0) with the contact inactive (the body starts apart)
-        test = ufl.TestFunction(self.u.function_space)
-        F0 = (
-            problem.inertia(self.a, test)
-            + problem.bulk_stiffness(self.u, test)
-            - problem.load(test)
-        )
-        V = self.u.function_space
+        interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
+        interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
         fdim = problem.mesh.topology.dim - 1
-        bcs = [
-            fem.dirichletbc(
-                fem.Function(V), fem.locate_dofs_topological(V, fdim, problem.facets(tag))
-            )
+        V = problem.V
+        bc_dofs = [
+            fem.locate_dofs_topological(V, fdim, problem.facets(tag))
             for tag, _ in problem.dirichlet
         ]
-        diagonal = self._mass_V if self.solver._D is not None else None
-        if diagonal is not None:  # massless nodes have no acceleration of their own
-            with diagonal.localForm() as local:
-                massless = np.flatnonzero(local.array.reshape(-1, problem.gdim)[:, 0] == 0.0)
-            bcs.append(fem.dirichletbc(fem.Function(V), massless.astype(np.int32)))
-        solver = SNESSolver(F0, self.a, bcs, mass_diagonal=diagonal)
-        solver.solve()
-        solver.destroy()
-
-    def add_probe(self, name: str, probe) -> None:
-        """Add a history column computed by ``probe()`` at every time level."""
-        self._probes[name] = probe
+        initial_acceleration(
+            problem, self.a, lambda test: problem.bulk_stiffness(self.u, test), bc_dofs
+        )
 
     def state(self) -> dict:
-        """t, the energies (E = E_Theta here), the contact force and the probes."""
+        """t, the energies (E = E_Theta here: no Nitsche term) and the contact force."""
         kinetic, elastic, potential, force = (
             self._kinetic() if form is None else assemble_global(form, self.comm)
             for form in self._energy_forms
@@ -230,12 +220,13 @@ class MixedSimulation:
             "potential": potential,
             "contact_force": force,
             "newton_iterations": self.newton_iterations,
+            "step_seconds": self.step_seconds,
         }
-        values.update({name: probe() for name, probe in self._probes.items()})
         return values
 
     def step(self) -> int:
         """One Crank-Nicolson step; returns the Newton iterations."""
+        start = time.perf_counter()
         t_new = (self.step_index + 1) * self.dt
         self.problem.set_time(t_new)
         self.x.x.array[self._w_index] = self.a.x.array  # guess: the last acceleration
@@ -244,35 +235,43 @@ class MixedSimulation:
         u1, v1, a1 = self.scheme.kinematics(
             self.u.x.array, self.v.x.array, self.a.x.array, w, self.dt
         )
-        _massless_velocity(self._massless, self.u.x.array, u1, v1, a1, self.dt)
+        massless_velocity(self._massless, self.u.x.array, u1, v1, a1, self.dt)
         self.u.x.array[:], self.v.x.array[:], self.a.x.array[:] = u1, v1, a1
         self.t, self.step_index, self.newton_iterations = t_new, self.step_index + 1, iterations
+        self.step_seconds = time.perf_counter() - start
         return iterations
 
-    def run(self, out=None, columns=None, callback=None) -> list[dict]:
-        """Run to t_end; write ``out/history.csv`` with ``columns`` when ``out`` is given."""
-        from .output import HistoryWriter, ensure_directory
+    def contact_pressure(self):
+        """The contact pressure: the multiplier lambda (<= 0), a UFL expression."""
+        return self._lambda
 
-        history = None
-        if out is not None:
-            import os
+    def output_fields(self) -> dict:
+        """Displacement, velocity and the multiplier lambda (zero off Gamma_C)."""
+        shape = (self.problem.gdim,)
+        return {
+            "displacement": (self.u, shape),
+            "velocity": (self.v, shape),
+            "multiplier": (self.multiplier, ()),
+        }
 
-            ensure_directory(out, self.comm)
-            history = HistoryWriter(os.path.join(out, "history.csv"), columns, self.comm)
-        records = [self.state()]
-        try:
-            if history:
-                history.write(records[-1])
-            while self.step_index < self.num_steps:
-                start = time.perf_counter()
-                self.step()
-                records.append(self.state())
-                records[-1]["step_seconds"] = time.perf_counter() - start
-                if history:
-                    history.write(records[-1])
-                if callback is not None:
-                    callback(self)
-        finally:
-            if history:
-                history.close()
-        return records
+    def before_output(self) -> None:
+        self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        self.before_output()
+        return {
+            "displacement": self.u,
+            "velocity": self.v,
+            "acceleration": self.a,
+            "multiplier": self.multiplier,
+        }
+
+    def describe(self) -> dict[str, Any]:
+        return checkpoint_description(self)
+
+    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
+        """Move to a loaded time level; the multiplier becomes the next step's guess."""
+        self.x.x.array[self._lambda_index] = self.multiplier.x.array
+        self.t, self.step_index = t, step_index
+        self.newton_iterations, self.step_seconds = newton_iterations, 0.0
+        self.problem.set_time(t)

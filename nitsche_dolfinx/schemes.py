@@ -1,4 +1,4 @@
-"""Time-marching schemes of SPEC section 3, as small classes with one interface.
+"""Time-marching schemes of docs/method.md section 3, as small classes with one interface.
 
 Every step solves one nonlinear system for an acceleration-like unknown ``w``;
 each scheme says how the new displacement, velocity and acceleration follow
@@ -21,9 +21,14 @@ explicit members (theta = 0, beta = 0) in the same mould.
 
 from __future__ import annotations
 
+from typing import Protocol
+
+from .parameters import require, require_choice
+
 __all__ = [
     "CrankNicolson",
     "HybridScheme",
+    "Model",
     "NewmarkScheme",
     "ThetaScheme",
     "TimeScheme",
@@ -32,25 +37,49 @@ __all__ = [
 ]
 
 
+class Model(Protocol):
+    """What a time scheme asks of a model to write a step's equation (UFL forms).
+
+    Implemented by :class:`~nitsche_dolfinx.model.ContactProblem` and, for single
+    contact quantities, by the classes of :mod:`nitsche_dolfinx.friction`.
+    """
+
+    def inertia(self, acceleration, v):
+        """<rho a, v> (zero for a diagonal mass, which the solver adds as a matrix)."""
+
+    def operator(self, u, v, velocity=None):
+        """The bulk and contact terms at one time level; ``velocity`` is u' there (for
+        the friction term)."""
+
+    def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        """The hybrid scheme's terms: the bulk at the midpoint and the contact term with
+        the switch Phi; ``velocity`` is the step's mean velocity (u_new - u_old) / tau."""
+
+    def load(self, v):
+        """L(t)(v), the loads at the time the scheme has set."""
+
+
 class TimeScheme:
     """Interface of a time scheme (see the module docstring).
 
-    The ``model`` passed to :meth:`residual` provides ``inertia(a, v)``,
-    ``operator(u, v, velocity)`` (A_Thgamma plus the contact terms at one time level;
-    the velocity feeds the friction term), ``hybrid_operator(u_old, u_new, v, velocity)`` (the
-    step's mean velocity (u_new - u_old) / tau, written without that cancelling difference) and
-    ``load(v)``.
+    A scheme says how ``(u^{n+1}, v^{n+1}, a^{n+1})`` follow from the unknown
+    (:meth:`kinematics`) and writes the step's equation with a :class:`Model`
+    (:meth:`residual`): by default the equation at t^{n+1},
+    ``<rho a^{n+1}, v> + B(u^{n+1}; v) = L^{n+1}(v)``.
     """
 
     name = "scheme"
+    #: The names of the constructor's parameters (the keys :func:`make_scheme` passes).
+    parameters: tuple[str, ...] = ()
 
     def kinematics(self, u, v, a, w, dt):
         """``(u^{n+1}, v^{n+1}, a^{n+1})`` from the state at t^n and the unknown ``w``."""
         raise NotImplementedError
 
-    def residual(self, model, w, u, v, a, dt, test):
-        """The residual form whose root is ``w``."""
-        raise NotImplementedError
+    def residual(self, model: Model, w, u, v, a, dt, test):
+        """The residual form whose root is ``w``: the equation at t^{n+1}."""
+        u1, v1, a1 = self.kinematics(u, v, a, w, dt)
+        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
 
     def equation_time(self, t: float, dt: float) -> float:
         """The time at which the loads of the step's equation are evaluated."""
@@ -73,10 +102,10 @@ class ThetaScheme(TimeScheme):
     """
 
     name = "theta"
+    parameters = ("theta",)
 
     def __init__(self, theta: float = 1.0):
-        if not 0.0 <= theta <= 1.0:
-            raise ValueError(f"theta must lie in [0, 1], got theta={theta!r}")
+        require(0.0 <= theta <= 1.0, "theta", theta, "theta must lie in [0, 1]")
         self.theta = float(theta)
 
     def kinematics(self, u, v, a, w, dt):
@@ -84,10 +113,6 @@ class ThetaScheme(TimeScheme):
         u1 = u + dt * v + th * (1 - th) * dt**2 * a + th**2 * dt**2 * w
         v1 = v + (1 - th) * dt * a + th * dt * w
         return u1, v1, w
-
-    def residual(self, model, w, u, v, a, dt, test):
-        u1, v1, a1 = self.kinematics(u, v, a, w, dt)
-        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
 
     def describe(self):
         return f"theta(theta={self.theta:g})"
@@ -97,6 +122,7 @@ class CrankNicolson(ThetaScheme):
     """Crank-Nicolson: the theta-scheme with theta = 1/2."""
 
     name = "cn"
+    parameters = ()
 
     def __init__(self):
         super().__init__(0.5)
@@ -114,12 +140,11 @@ class NewmarkScheme(TimeScheme):
     """
 
     name = "newmark"
+    parameters = ("beta", "gamma")
 
     def __init__(self, beta: float = 0.25, gamma: float = 0.5):
-        if not 0.0 <= beta <= 0.5:
-            raise ValueError(f"Newmark beta must lie in [0, 1/2], got beta={beta!r}")
-        if not 0.0 <= gamma <= 1.0:
-            raise ValueError(f"Newmark gamma must lie in [0, 1], got gamma={gamma!r}")
+        require(0.0 <= beta <= 0.5, "beta", beta, "Newmark beta must lie in [0, 1/2]")
+        require(0.0 <= gamma <= 1.0, "gamma", gamma, "Newmark gamma must lie in [0, 1]")
         self.beta = float(beta)
         self.gamma = float(gamma)
 
@@ -127,10 +152,6 @@ class NewmarkScheme(TimeScheme):
         u1 = u + dt * v + (0.5 - self.beta) * dt**2 * a + self.beta * dt**2 * w
         v1 = v + (1 - self.gamma) * dt * a + self.gamma * dt * w
         return u1, v1, w
-
-    def residual(self, model, w, u, v, a, dt, test):
-        u1, v1, a1 = self.kinematics(u, v, a, w, dt)
-        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
 
     def describe(self):
         return f"newmark(beta={self.beta:g}, gamma={self.gamma:g})"
@@ -164,20 +185,20 @@ class HybridScheme(TimeScheme):
         return t + dt / 2
 
 
-#: Scheme names accepted by :func:`make_scheme` and the demos' ``--scheme`` flag.
-SCHEMES = ("hybrid", "theta", "newmark", "cn")
+#: The schemes by name: the demos' ``--scheme`` flag and ``[scheme] name`` in TOML.
+SCHEMES: dict[str, type[TimeScheme]] = {
+    "hybrid": HybridScheme,
+    "theta": ThetaScheme,
+    "newmark": NewmarkScheme,
+    "cn": CrankNicolson,
+}
 
 
 def make_scheme(
     name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5
 ) -> TimeScheme:
-    """The scheme called ``name`` (one of :data:`SCHEMES`) with its parameters."""
-    if name == "hybrid":
-        return HybridScheme()
-    if name == "cn":
-        return CrankNicolson()
-    if name == "theta":
-        return ThetaScheme(theta)
-    if name == "newmark":
-        return NewmarkScheme(beta, gamma)
-    raise ValueError(f"unknown scheme {name!r}; choose one of {', '.join(SCHEMES)}")
+    """The scheme called ``name`` (a key of :data:`SCHEMES`) with the parameters it takes."""
+    require_choice(name, SCHEMES, "scheme", "scheme")
+    cls = SCHEMES[name]
+    given = {"theta": theta, "beta": beta, "gamma": gamma}
+    return cls(**{key: given[key] for key in cls.parameters})

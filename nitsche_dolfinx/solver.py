@@ -92,41 +92,26 @@ def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | No
 
 
 class Forms:
-    """A UFL form compiled as one dolfinx form per quadrature rule.
-
-    FFCx 0.5 cannot generate one form whose integrals use different quadrature
-    rules (a lumped mass by vertex quadrature next to Gauss quadrature), so each
-    rule gets its own compiled form; they are assembled one after the other.
-    """
+    """A UFL form compiled once, with the assembly operations the solver applies to it."""
 
     def __init__(self, form: ufl.Form):
-        groups: dict[str, list] = {}
-        for integral in form.integrals():
-            rule = integral.metadata().get("quadrature_rule", "default")
-            groups.setdefault(rule, []).append(integral)
-        # the default rule first: its form carries the whole sparsity (bulk and facets)
-        rules = sorted(groups, key=lambda rule: rule != "default")
-        self.forms = [fem.form(ufl.Form(groups[rule])) for rule in rules]
+        self.form = fem.form(form)
 
     def assemble_vector(self, b: PETSc.Vec) -> None:
         """Add the form to the (local form of the) vector ``b``."""
-        for form in self.forms:
-            fem_petsc.assemble_vector(b, form)
+        fem_petsc.assemble_vector(b, self.form)
 
     def assemble_matrix(self, A: PETSc.Mat, bcs=(), diagonal: float = 1.0) -> None:
-        """Add the form to ``A``; Dirichlet rows get ``diagonal`` once."""
-        last = len(self.forms) - 1
-        for i, form in enumerate(self.forms):
-            fem_petsc.assemble_matrix(A, form, list(bcs), diagonal if i == last else 0.0)
+        """Add the form to ``A``; Dirichlet rows get ``diagonal``."""
+        fem_petsc.assemble_matrix(A, self.form, list(bcs), diagonal)
 
     def apply_lifting(self, b: PETSc.Vec, bcs, x0, alpha: float) -> None:
-        """Lifting of the Dirichlet values, form by form (it is linear in the form)."""
-        for form in self.forms:
-            compat.apply_lifting(b, form, bcs, x0, alpha)
+        """Lifting of the Dirichlet values."""
+        compat.apply_lifting(b, self.form, bcs, x0, alpha)
 
     def create_matrix(self) -> PETSc.Mat:
         """A matrix with the sparsity of the form."""
-        return compat.create_matrix(self.forms[0])
+        return fem_petsc.create_matrix(self.form)
 
 
 _MUMPS: dict = {}
@@ -256,6 +241,9 @@ class SNESSolver:
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
         self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
+        #: Skip the facet (contact) Jacobian while ``facet_activity`` is zero everywhere;
+        #: False assembles it at every evaluation (the reference the skip is checked by).
+        self.skip_inactive_facets = True
 
         options = {**DEFAULT_PETSC_OPTIONS}
         if _mumps_available(u.function_space.mesh.comm):
@@ -352,7 +340,9 @@ class SNESSolver:
             if self._D is not None:
                 A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
                 A.assemble()
-        elif self._split.facet_jacobian_changed():  # always at the first evaluation
+        elif self._split.facet_jacobian_changed(
+            self.skip_inactive_facets
+        ):  # always at the first evaluation
             # every Jacobian is K_bc + B, summed in that order: a run restarted from a
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
             self._split.sum_into(A)
@@ -423,6 +413,11 @@ class SNESSolver:
         u_vec.copy(self._x)
         self._assemble_residual(self.snes, self._x, self._b)
         return self._b.norm()
+
+    @property
+    def facet_jacobian_assemblies(self) -> int:
+        """How many times the facet (contact) Jacobian was assembled."""
+        return self._split.assemblies if self._split is not None else self.jacobian_evaluations
 
     def destroy(self) -> None:
         """Free the PETSc objects (collective)."""
@@ -517,12 +512,13 @@ class _AffineCellSplit:
         self._activity.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return self._activity.norm(PETSc.NormType.NORM_INFINITY) == 0.0
 
-    def facet_jacobian_changed(self) -> bool:
-        """Assemble the facet Jacobian; True if it differs from the last one."""
+    def facet_jacobian_changed(self, skip_inactive: bool = True) -> bool:
+        """Assemble the facet Jacobian (unless it is inactive now and was at the last
+        assembly, and ``skip_inactive``); True if it differs from the last one."""
         if self.B is None:  # no facet terms: the Jacobian never changes
             first, self.B_last = self.B_last is None, True
             return first
-        inactive = self.facet_terms_inactive()
+        inactive = skip_inactive and self.facet_terms_inactive()
         if inactive and self._inactive and self.B_last is not None:
             return False  # inactive now and at the last assembly: the same Jacobian
         self._inactive = inactive

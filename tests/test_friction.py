@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.cases import add_block_probes, block_problem, impact_problem
-from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS, Simulation
+from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS
 from nitsche_dolfinx.schemes import HybridScheme, make_scheme
 
 DT = 0.05
@@ -101,7 +102,8 @@ def test_friction_history_columns_and_fields(tmp_path):
     assert header == list(FRICTION_HISTORY_COLUMNS)
     names = set(simulation.output_fields())
     assert {"slip_velocity", "friction_traction"} <= names
-    slip, traction = (f.function for f in simulation._friction.fields)
+    fields = simulation.output_fields()
+    slip, traction = fields["slip_velocity"][0], fields["friction_traction"][0]
     # sliding to +x: slip along +x and a traction along -x of magnitude mu_f |sigma_n| ~ 0.2
     bottom = np.flatnonzero(np.abs(slip.x.array.reshape(-1, 2)[:, 0]) > 0)
     assert bottom.size > 0

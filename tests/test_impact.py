@@ -8,7 +8,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, compat
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.problem import STATE_COLUMNS
+from nitsche_dolfinx.history import STATE_COLUMNS
 
 COLUMNS = STATE_COLUMNS
 
@@ -95,12 +95,12 @@ def _disk_steps(steps, activity=True, **options):
     problem = impact_problem(dim=2, mesh_size=8.0)
     simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=steps * 0.1, **options)
     if not activity:
-        simulation.solver._split.activity = None  # assemble at every evaluation
+        simulation.solver.skip_inactive_facets = False  # assemble at every evaluation
     counts = []
     for _ in range(steps):
         simulation.step()
-        split = simulation.solver._split
-        counts.append((split.assemblies, simulation.solver.preconditioner_updates))
+        solver = simulation.solver
+        counts.append((solver.facet_jacobian_assemblies, solver.preconditioner_updates))
     return simulation, np.array(counts)
 
 
@@ -113,7 +113,7 @@ def test_contact_jacobian_assembled_only_in_contact():
     assert fall[:, 0].max() == 1 and fall[:, 1].max() == 1
     assert counts[-1, 0] > counts[95, 0] + 10  # one per Newton iteration in contact
     reference, _ = _disk_steps(120, activity=False)
-    assert reference.solver._split.assemblies == reference.solver.jacobian_evaluations
+    assert reference.solver.facet_jacobian_assemblies == reference.solver.jacobian_evaluations
     for name in ("u", "v"):
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
         assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())

@@ -92,10 +92,7 @@ def test_mixed_method_in_2d_and_3d(dim):
     sys.path.insert(0, __file__.rsplit("/", 1)[0])
     from test_problem import dropped_block
 
-    from nitsche_dolfinx.mixed import MixedSimulation
-
-    problem = dropped_block(dim, gravity=0.5)
-    problem.mass = "redistributed"
-    h = history(MixedSimulation(problem, dt=0.01, t_end=0.3))
+    problem = dropped_block(dim, gravity=0.5, method="mixed", mass="redistributed")
+    h = history(Simulation(problem, CrankNicolson(), dt=0.01, t_end=0.3))
     assert h["contact_force"].max() > 0
     assert np.abs(h["energy"] - h["energy"][0]).max() < 0.01 * h["energy"][0]

@@ -36,8 +36,9 @@ def up(dim, value):
     return vector
 
 
-def dropped_block(dim, comm=MPI.COMM_WORLD, gravity=0.0, degree=1, gamma0=1e-4):
-    """A block 0.05 above the ground, falling at speed 1 (gamma0 E = 5e-3: well-posed)."""
+def dropped_block(dim, comm=MPI.COMM_WORLD, gravity=0.0, degree=1, gamma0=1e-4, **options):
+    """A block 0.05 above the ground, falling at speed 1 (gamma0 E = 5e-3: well-posed);
+    ``options``: further arguments of ContactProblem (method, mass)."""
     msh, tags = block(dim, comm)
     problem = ContactProblem(
         msh,
@@ -46,6 +47,7 @@ def dropped_block(dim, comm=MPI.COMM_WORLD, gravity=0.0, degree=1, gamma0=1e-4):
         degree=degree,
         gamma0=gamma0,
         nitsche_theta=1.0,
+        **options,
     )
     problem.add_obstacle(PlaneObstacle(point=up(dim, -0.05), normal=up(dim, 1.0)), BOTTOM)
     if gravity:
@@ -84,7 +86,7 @@ def test_impact_hybrid_energy_theta_never_grows(dim):
 @pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
 def test_parallel_matches_serial_2d(scheme):
     """Energies, forces and penetration on all ranks equal those of a one-rank run."""
-    from nitsche_dolfinx.problem import STATE_COLUMNS
+    from nitsche_dolfinx.history import STATE_COLUMNS
 
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):

@@ -135,7 +135,7 @@ def test_contact_facets_are_the_lower_half(shape):
     case = SHAPES[shape]
     mesh, facet_tags = _mesh(shape)
     fdim = mesh.topology.dim - 1
-    compat.create_connectivity(mesh, fdim, mesh.topology.dim)
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
     axis, centre, eps = case["axis"], case["centre"], 1e-8 * RADIUS
     below = dmesh.locate_entities_boundary(mesh, fdim, lambda x: x[axis] <= centre + eps)
     above = dmesh.locate_entities_boundary(mesh, fdim, lambda x: x[axis] >= centre - eps)

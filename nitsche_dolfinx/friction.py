@@ -1,0 +1,223 @@
+"""Coulomb friction around the model: contact quantities as models of the time schemes,
+the guarded semismooth Newton of a frictional step, and the friction output.
+
+- :class:`ContactTerms`: one contact quantity (the friction work, the friction
+  traction, the slip velocity, the contact activity) behind the
+  :class:`~nitsche_dolfinx.schemes.Model` interface, so that a scheme evaluates it
+  with its own normal force, slip velocity and threshold;
+- :class:`GuardedFriction`: the problem with its friction law guarded by a reference
+  state (docs/method.md section 8);
+- :class:`GuardedNewton`: the step's Newton solve on the guarded law;
+- :class:`FrictionOutput`: the work D^n of a step and the friction fields on Gamma_C.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from petsc4py import PETSc
+
+from .contact import positive_part
+from .diagnostics import BoundaryField, assemble_global
+from .solver import SNESSolver, SolverError
+
+__all__ = [
+    "FRICTION_QUANTITIES",
+    "ContactTerms",
+    "FrictionOutput",
+    "GuardedFriction",
+    "GuardedNewton",
+]
+
+
+class ContactTerms:
+    """A contact quantity of a problem behind the model interface of the time schemes
+    (no inertia, bulk or load), so that ``scheme.residual(terms, w, u, v, a, dt, test)``
+    evaluates it with the step's own normal force, slip velocity and threshold (hybrid:
+    Phi, v^{n+1/2} and mu_f Phi; theta and Newmark: [P_gamma(u^{n+1})]_+, v^{n+1} and
+    mu_f [P_gamma(u^{n+1})]_+).
+
+    ``term(contact, u, velocity, normal_force, test)`` is the form of one contact.
+    """
+
+    def __init__(self, contacts, term):
+        self.contacts = list(contacts)
+        self.term = term
+
+    def inertia(self, acceleration, v):
+        return 0
+
+    def load(self, v):
+        return 0
+
+    def operator(self, u, v, velocity=None):
+        forms = (
+            self.term(c, u, velocity, positive_part(c.projection(u)), v) for c in self.contacts
+        )
+        return sum(forms, 0)
+
+    def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        form = 0
+        for contact in self.contacts:
+            u_mid, force = contact.hybrid_state(u_old, u_new)
+            form = form + self.term(contact, u_mid, velocity, force, v)
+        return form
+
+
+class GuardedFriction:
+    """A :class:`ContactProblem` whose friction law is guarded by a reference state
+    (:func:`~nitsche_dolfinx.contact.guarded_projection`), behind the model interface of
+    the time schemes. ``reference`` maps an expression of the unknown to its value at
+    the reference state."""
+
+    def __init__(self, problem, reference):
+        self.problem = problem
+        self.reference = reference
+
+    def inertia(self, acceleration, v):
+        return self.problem.inertia(acceleration, v)
+
+    def load(self, v):
+        return self.problem.load(v)
+
+    def operator(self, u, v, velocity=None):
+        return self.problem.operator(u, v, velocity, self.reference)
+
+    def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        return self.problem.hybrid_operator(u_old, u_new, v, velocity, self.reference)
+
+
+#: Friction quantities of :meth:`ContactProblem.friction_terms`.
+FRICTION_QUANTITIES = {
+    # the friction term of the equation: tested with the step's increment, its work
+    "work": lambda c, u, velocity, force, v: c.friction_term(u, velocity, force, v),
+    # int lambda_t . v and int u'_t . v, for output on Gamma_C
+    "traction": lambda c, u, velocity, force, v: (
+        ufl.inner(c.friction_traction(u, velocity, force), v) * c.ds
+    ),
+    "slip_velocity": lambda c, u, velocity, force, v: ufl.inner(c.tangential(velocity), v) * c.ds,
+}
+
+
+class FrictionOutput:
+    """The friction quantities of a stepper (:class:`~nitsche_dolfinx.stepper.NitscheStepper`:
+    ``problem``, ``scheme``, the unknown ``w``, the state ``u``, ``v``, ``a``): the work D^n
+    of each step, and the fields ``slip_velocity`` and ``friction_traction`` on Gamma_C.
+
+    D^n is the friction term of the step's equation tested with the step's increment
+    u^{n+1} - u^n (the scheme's slip velocity and threshold), so that
+    E_Theta^{n+1} - E_Theta^n + D^n is what the contact terms' energy identity leaves.
+    The fields are the friction law at the time level: u'_t and
+    lambda_t = -(1/gamma_h) [u'_t - gamma_h sigma_t(u)]_{mu_f [P_gamma(u)]_+}.
+    """
+
+    def __init__(self, stepper, dt):
+        sim, problem = stepper, stepper.problem
+        self.comm = problem.mesh.comm
+        self.increment = fem.Function(problem.V)
+        terms = problem.friction_terms("work")
+        work = sim.scheme.residual(terms, sim.w, sim.u, sim.v, sim.a, dt, self.increment)
+        self._work = fem.form(work)
+        tags = tuple(tag for c, tag in zip(problem.contacts, problem.contact_tags) if c.frictional)
+        ds = problem.ds(tags)
+        shape = (problem.gdim,)
+        self.fields = []
+        for name, quantity in (
+            ("slip_velocity", "slip_velocity"),
+            ("friction_traction", "traction"),
+        ):
+            terms = problem.friction_terms(quantity)
+            self.fields.append(
+                BoundaryField(
+                    problem.mesh,
+                    shape,
+                    ds,
+                    lambda mu, terms=terms: terms.operator(sim.u, mu, sim.v),
+                    name,
+                )
+            )
+
+    def work(self, increment: np.ndarray) -> float:
+        """D^n for the step from the current state with the increment (dof array)."""
+        self.increment.x.array[:] = increment
+        return assemble_global(self._work, self.comm)
+
+    def update_fields(self) -> None:
+        for field in self.fields:
+            field.update()
+
+
+class GuardedNewton:
+    """Semismooth Newton on the friction law guarded by a reference state (see the
+    ``guard_friction`` argument of
+    :class:`~nitsche_dolfinx.simulation.Simulation`).
+
+    ``model`` is the problem with the guarded law, for the step's residual. With the
+    reference at the unknown itself the guarded law is Coulomb's, value for value
+    (:func:`~nitsche_dolfinx.contact.guarded_projection`), so the same solver also
+    evaluates Coulomb's residual (:meth:`coulomb_residual`).
+
+    Args:
+        problem: The frictional problem.
+        scheme: The time scheme.
+        state: ``(w, u, v, a, dt)`` of the simulation: the unknown, the state at t^n
+            and the time step (a Constant).
+    """
+
+    def __init__(self, problem, scheme, state):
+        w = state[0]
+        self.w = w
+        self.reference = fem.Function(w.function_space, name="reference")
+        at_reference = {w: self.reference}
+
+        def reference(expr):
+            return ufl.replace(expr, at_reference)
+
+        self.model = problem.guarded_friction(reference)
+        activity = ContactTerms(
+            problem.frictional_contacts,
+            lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),
+        )
+        self.activity = fem.form(scheme.residual(activity, *state, None))
+        self.comm = problem.mesh.comm
+
+    def coulomb_residual(self, solver: SNESSolver, new_coefficients: bool = True) -> float:
+        """The norm of Coulomb's residual at the current ``w`` (the reference is moved
+        to ``w``); ``solver`` is the SNES of :attr:`model`'s residual."""
+        self.reference.x.array[:] = self.w.x.array
+        return solver.residual_norm(new_coefficients)
+
+    def solve(
+        self, solver: SNESSolver, first_reference: np.ndarray, tolerance: float, updates: int
+    ) -> int:
+        """Solve from the current ``w`` with the reference ``first_reference`` (an array
+        of the unknown), moving the reference to each guarded solution until the guarded
+        law is Coulomb's (at most ``updates`` times). The SNES residual tolerance is the
+        absolute ``tolerance``. Returns the Newton iterations of all the solves."""
+        solver.snes.setTolerances(rtol=0.0, atol=tolerance)
+        self.reference.x.array[:] = first_reference
+        spent = 0
+        for _ in range(updates + 1):
+            spent += self._solve_once(solver)
+            if assemble_global(self.activity, self.comm) == 0.0:
+                return spent
+            self.reference.x.array[:] = self.w.x.array
+        raise SolverError(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, spent, float("nan"))
+
+    def _solve_once(self, solver: SNESSolver) -> int:
+        """One solve with a fixed reference: full Newton steps and, should they cycle
+        among the pieces of the law, again from the same start with the l2 line search
+        (measured: the block just stopped, its edges still slipping)."""
+        start = self.w.x.array.copy()
+        try:
+            return solver.solve()
+        except SolverError as error:
+            spent = error.iterations
+        self.w.x.array[:] = start
+        with solver.line_search("l2"):
+            try:
+                return spent + solver.solve()
+            except SolverError as error:
+                error.iterations += spent
+                raise

@@ -1,0 +1,125 @@
+"""The history of a run: one row of diagnostics per time level, and its summary figures.
+
+:meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>` returns a
+:class:`History`. Indexed by a column name it gives that column as an array;
+by an integer, that row as a dict; iterated, the rows::
+
+    history = simulation.run(out="out/bar")
+    history["energy"]             # numpy array, one value per time level
+    history[-1]["energy"]         # the final row
+    history.energy_drift()        # E(T) / E(0) - 1
+
+The column names are those of ``history.csv`` (docs/method.md section 6).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+__all__ = [
+    "BALANCE_COLUMNS",
+    "FRICTION_HISTORY_COLUMNS",
+    "HISTORY_COLUMNS",
+    "STATE_COLUMNS",
+    "History",
+]
+
+#: The physical quantities of ``history.csv``: energies and contact (reduced over MPI).
+STATE_COLUMNS = (
+    "energy",
+    "energy_theta",
+    "kinetic",
+    "elastic",
+    "potential",
+    "contact_force",
+    "contact_area",
+    "penetration_max",
+)
+#: Columns of ``history.csv`` for the 2D/3D demos (docs/method.md section 6).
+HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds")
+#: The energy balance of a step: D^n, the work of the friction term on the step's
+#: increment, and E_Theta^{n+1} - E_Theta^n + D^n (both 0 at t = 0).
+BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
+#: Columns of ``history.csv`` for the friction demos.
+FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS[:-2], *BALANCE_COLUMNS, *HISTORY_COLUMNS[-2:])
+
+
+class History:
+    """The rows of a run (dicts of numbers, one per time level), with column access.
+
+    Args:
+        rows: The rows, in time order.
+    """
+
+    def __init__(self, rows=()):
+        self.rows: list[dict] = list(rows)
+
+    def append(self, row: dict) -> None:
+        self.rows.append(row)
+
+    def extend(self, rows) -> None:
+        self.rows.extend(rows)
+
+    @property
+    def columns(self) -> list[str]:
+        """The column names of the last row (a restart may continue older rows)."""
+        return list(self.rows[-1]) if self.rows else []
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __iter__(self) -> Iterator[dict]:
+        return iter(self.rows)
+
+    def __contains__(self, name: str) -> bool:
+        return bool(self.rows) and name in self.rows[-1]
+
+    def __getitem__(self, key):
+        """A column by name (an array), a row by index (a dict), rows by slice (a list)."""
+        if isinstance(key, str):
+            if key not in self:
+                raise KeyError(f"no column {key!r} in the history (its columns: {self.columns})")
+            return np.array([row.get(key, np.nan) for row in self.rows])
+        return self.rows[key]
+
+    # -- summary figures -----------------------------------------------------------------
+
+    def energy_drift(self, column: str = "energy") -> float:
+        """The relative change of an energy over the run: E(T) / E(0) - 1."""
+        energy = self[column]
+        return energy[-1] / energy[0] - 1
+
+    def largest_rise(self, column: str = "energy_theta") -> float:
+        """The largest one-step rise of an energy, relative to its initial value (E_Theta
+        never rises for the hybrid scheme with Theta = 1, docs/method.md section 4)."""
+        energy = self[column]
+        if len(energy) < 2:
+            return 0.0
+        return float(np.max(np.diff(energy)) / abs(energy[0]))
+
+    def mean_newton_iterations(self) -> float:
+        """The mean Newton iterations per step (the row at t = 0 has no solve)."""
+        iterations = self["newton_iterations"][1:]
+        return float(np.mean(iterations)) if iterations.size else 0.0
+
+    def contact_interval(self, column: str = "contact_force") -> tuple[float, float] | None:
+        """The first and the last time level with a positive contact force, or None."""
+        t, force = self["t"], self[column]
+        touching = t[force > 0]
+        return (float(touching[0]), float(touching[-1])) if touching.size else None
+
+    def summary(self) -> dict[str, float]:
+        """The figures every demo reports: drifts of E and E_Theta, the largest rise of
+        E_Theta, the mean Newton iterations and the contact interval (NaN: no contact)."""
+        interval = self.contact_interval() if "contact_force" in self else None
+        first, last = interval if interval is not None else (np.nan, np.nan)
+        return {
+            "energy_drift": self.energy_drift("energy"),
+            "energy_theta_drift": self.energy_drift("energy_theta"),
+            "largest_rise": self.largest_rise(),
+            "mean_newton_iterations": self.mean_newton_iterations(),
+            "first_contact": first,
+            "last_contact": last,
+        }

@@ -1,0 +1,331 @@
+"""The model: linear elastodynamics with contact, as terms added to a weak form.
+
+A :class:`ContactProblem` holds the mesh, the material and the terms of the
+weak form: Dirichlet conditions, loads, and one contact per rigid obstacle. It
+offers them to the time schemes through the
+:class:`~nitsche_dolfinx.schemes.Model` interface (``inertia``, ``operator``,
+``hybrid_operator``, ``load``); :class:`~nitsche_dolfinx.simulation.Simulation`
+marches it in time.
+
+Example (the 1D bar of docs/method.md section 5)::
+
+    mesh, tags = bar_mesh(100)
+    problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.0, rho=1.0),
+                             gamma0=1e-6, nitsche_theta=1.0)
+    problem.add_dirichlet(BAR_CLAMPED, 0.0)
+    problem.add_obstacle(PlaneObstacle([0.0], [1.0]), BAR_CONTACT)
+    problem.set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from . import compat
+from .contact import NitscheContact, PenaltyContact
+from .friction import FRICTION_QUANTITIES, ContactTerms, GuardedFriction
+from .mass import lumped_mass, redistributed_mass
+from .material import Material, sigma
+from .meshes import cell_diameter
+from .parameters import CONTACT_METHODS, MASS_MATRICES, Discretisation, NitscheParameters
+
+__all__ = ["CONTACT_METHODS", "MASS_MATRICES", "ContactProblem", "TimeDependentValue", "as_array"]
+
+
+class TimeDependentValue:
+    """A constant or a function of t, held in a ``fem.Constant`` that follows the time."""
+
+    def __init__(self, mesh, value, shape: tuple[int, ...], what: str):
+        self._function = value if callable(value) else None
+        initial = value(0.0) if callable(value) else value
+        self.constant = fem.Constant(mesh, as_array(initial, shape, what))
+        self.shape = shape
+        self.what = what
+
+    @property
+    def time_dependent(self) -> bool:
+        """Whether the value is a function of t."""
+        return self._function is not None
+
+    def value_at(self, t: float) -> np.ndarray:
+        if self._function is None:
+            return np.asarray(self.constant.value)
+        return as_array(self._function(t), self.shape, self.what)
+
+    def set_time(self, t: float) -> None:
+        if self._function is not None:
+            self.constant.value = self.value_at(t)
+
+
+def as_array(value, shape, what) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if array.shape != shape:
+        if array.size == 1 and shape == (1,):
+            return array.reshape(shape)
+        raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
+    return array
+
+
+class ContactProblem:
+    """Linear elastodynamics with Nitsche contact against rigid obstacles.
+
+    Args:
+        mesh: The dolfinx mesh (1D, 2D or 3D).
+        facet_tags: Facet tags naming the boundary parts used by the terms.
+        material: The elastic material and its density.
+        degree: Degree of the Lagrange displacement space (1 or 2).
+        gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact).
+        nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
+        friction: Coulomb coefficient mu_f >= 0, or None (the default) for frictionless
+            contact. With a coefficient, the frictional Nitsche term of docs/method.md section 2 is
+            added (:meth:`~nitsche_dolfinx.contact.NitscheContact.friction_term`) with the
+            tangential velocity of the time scheme; mu_f is the ``fem.Constant``
+            attribute ``friction`` and mu_f = 0 is the frictionless problem.
+        method: Contact method: ``"nitsche"`` (the default), ``"penalty"``
+            (:class:`~nitsche_dolfinx.contact.PenaltyContact`, eps = gamma0 h_T) or
+            ``"mixed"``: a Lagrange multiplier for the pressure, one obstacle,
+            Crank-Nicolson only (:class:`~nitsche_dolfinx.mixed.MixedStepper`).
+        mass: ``"consistent"`` (the default), ``"lumped"`` (P1: vertex quadrature) or
+            ``"redistributed"``: the modified mass of Khenous, Laborde & Renard, lumped,
+            with the mass of the contact nodes moved to their neighbours (P1). The
+            contact tags are those of the obstacles added before the first simulation.
+        quadrature_degree: Quadrature degree of every integral, in the equations and in
+            the energies alike (so that the discrete energy identities hold to round-off,
+            also on curved cells). Default: 2 * degree on affine meshes, 2 * degree + 2 on
+            second-order geometries.
+
+    The parameters are checked by :class:`~nitsche_dolfinx.parameters.NitscheParameters`
+    and :class:`~nitsche_dolfinx.parameters.Discretisation`.
+    ``gamma0`` and ``nitsche_theta`` are ``fem.Constant`` attributes: change
+    their ``.value`` between runs without recompiling any form.
+    """
+
+    def __init__(
+        self,
+        mesh,
+        facet_tags,
+        material: Material,
+        degree: int = 1,
+        gamma0: float = 1.0,
+        nitsche_theta: float = 1.0,
+        friction: float | None = None,
+        quadrature_degree: int | None = None,
+        method: str = "nitsche",
+        mass: str = "consistent",
+    ):
+        nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method)
+        discretisation = Discretisation(int(degree), mass, quadrature_degree)
+        self.mesh = mesh
+        self.facet_tags = facet_tags
+        self.material = material
+        self.degree = discretisation.degree
+        self.method = nitsche.method
+        self.mass = discretisation.mass
+        self._mass_diagonal = None
+        self.gdim = mesh.geometry.dim
+        self.V = compat.function_space(mesh, "Lagrange", self.degree, (self.gdim,))
+        self.gamma0 = fem.Constant(mesh, float(gamma0))
+        self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
+        self.friction = None if friction is None else fem.Constant(mesh, float(friction))
+        self.h = cell_diameter(mesh)
+        self.gamma_h = self.gamma0 * self.h
+        if quadrature_degree is None:
+            quadrature_degree = 2 * self.degree + 2 * (compat.geometry_degree(mesh) - 1)
+        self.quadrature_degree = int(quadrature_degree)
+        metadata = {"quadrature_degree": self.quadrature_degree}
+        self.dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
+        self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=metadata)
+        self.contacts: list[NitscheContact] = []
+        self.contact_tags: list[int] = []
+        self.dirichlet: list[tuple[int, TimeDependentValue]] = []
+        self._body_forces: list[TimeDependentValue] = []
+        self._tractions: list[tuple[int, TimeDependentValue]] = []
+        self.initial_displacement = None
+        self.initial_velocity = None
+
+    # -- building the model ------------------------------------------------------------
+
+    def facets(self, tag: int) -> np.ndarray:
+        """Local indices of the facets tagged ``tag``; raises if no rank has any."""
+        tags = self.facet_tags
+        found = tags.indices[tags.values == tag].astype(np.int32) if tags is not None else []
+        if self.mesh.comm.allreduce(len(found), op=MPI.SUM) == 0:
+            present = sorted(
+                set(
+                    self.mesh.comm.allreduce(
+                        [] if tags is None else np.unique(tags.values).tolist(), op=MPI.SUM
+                    )
+                )
+            )
+            raise ValueError(f"facet tag {tag!r} is not in the mesh (its facet tags are {present})")
+        return np.asarray(found, dtype=np.int32)
+
+    def add_dirichlet(self, tag: int, value=0.0) -> None:
+        """Prescribe the displacement on the facets ``tag``: a vector (or scalar in 1D),
+        or a function of t returning one."""
+        self.facets(tag)
+        self.dirichlet.append(
+            (tag, TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value"))
+        )
+
+    def add_body_force(self, value) -> None:
+        """Add a volume force f: a vector, or a function of t returning one."""
+        self._body_forces.append(TimeDependentValue(self.mesh, value, (self.gdim,), "body force"))
+
+    def add_traction(self, tag: int, value) -> None:
+        """Add a Neumann traction g_N on the facets ``tag``: a vector, or a function of t."""
+        self.facets(tag)
+        self._tractions.append(
+            (tag, TimeDependentValue(self.mesh, value, (self.gdim,), "traction"))
+        )
+
+    def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
+        """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
+        self.facets(tag)
+        law = PenaltyContact if self.method == "penalty" else NitscheContact
+        contact = law(
+            obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction
+        )
+        self.contacts.append(contact)
+        self.contact_tags.append(tag)
+        return contact
+
+    def set_initial_conditions(self, displacement=None, velocity=None) -> None:
+        """Initial displacement u0 and velocity v0 (zero when omitted).
+
+        Each is a constant vector, a function of the coordinates ``x`` (shape (3, N))
+        returning the values (shape (gdim, N), or (N,) in 1D), or a Function on the
+        displacement space.
+        """
+        self.initial_displacement = displacement
+        self.initial_velocity = velocity
+
+    # -- the terms of the weak form, used by the time schemes --------------------------
+
+    def stress(self, u):
+        """sigma(u)."""
+        return sigma(u, self.material)
+
+    def bulk_stiffness(self, u, v):
+        """a(u, v) = int sigma(u) : eps(v)."""
+        return ufl.inner(self.stress(u), ufl.sym(ufl.grad(v))) * self.dx
+
+    def inertia(self, acceleration, v):
+        """<rho u'', v> with the consistent mass; zero for a diagonal mass
+        (:meth:`mass_diagonal`), which the solver adds as a matrix."""
+        rho = self.material.rho if self.mass == "consistent" else 0.0
+        return rho * ufl.inner(acceleration, v) * self.dx
+
+    def mass_diagonal(self, V=None):
+        """The lumped or redistributed mass matrix as a PETSc vector (its diagonal), or None
+        for the consistent mass; on ``V`` (another numbering of the displacement space)
+        when given."""
+        if self.mass == "consistent":
+            return None
+        if V is not None:
+            return self._diagonal_mass(V)
+        if self._mass_diagonal is None:
+            self._mass_diagonal = self._diagonal_mass(self.V)
+        return self._mass_diagonal
+
+    def massless_dofs(self) -> np.ndarray:
+        """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass)."""
+        diagonal = self.mass_diagonal()
+        if diagonal is None:
+            return np.zeros(0, dtype=np.int32)
+        with diagonal.localForm() as local:
+            return np.flatnonzero(local.array == 0.0).astype(np.int32)
+
+    def _diagonal_mass(self, V):
+        if self.mass == "lumped":
+            return lumped_mass(V, self.material.rho)
+        if not self.contact_tags:
+            raise ValueError("mass='redistributed' needs an obstacle: add one first")
+        facets = np.concatenate([self.facets(tag) for tag in self.contact_tags])
+        return redistributed_mass(V, self.material.rho, facets)
+
+    @property
+    def frictional(self) -> bool:
+        """Whether the contact terms carry Coulomb friction (a coefficient was given)."""
+        return self.friction is not None
+
+    @property
+    def frictional_contacts(self) -> list[NitscheContact]:
+        """The contacts with a Coulomb coefficient (all of them, or none)."""
+        return [contact for contact in self.contacts if contact.frictional]
+
+    @property
+    def symmetric_jacobian(self) -> bool:
+        """Whether the Jacobian of every time scheme is symmetric: without friction, with
+        the symmetric variant Theta = 1 or with penalty (whose test term is v_n).
+        The stepper reads it once, when it is built."""
+        if self.frictional:
+            return False
+        return self.method == "penalty" or float(np.asarray(self.nitsche_theta.value)) == 1.0
+
+    def operator(self, u, v, velocity=None, reference=None):
+        """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact terms at one time level
+        (with friction, ``velocity`` is u' at that level; ``reference``: the guarded
+        friction law, see :meth:`guarded_friction`)."""
+        form = self.bulk_stiffness(u, v)
+        for contact in self.contacts:
+            form = form + contact.residual(u, v, velocity, reference)
+        return form
+
+    def hybrid_operator(self, u_old, u_new, v, velocity=None, reference=None):
+        """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term
+        Phi; with friction, the step's mean velocity ``velocity`` = (u_new - u_old) / tau."""
+        form = self.bulk_stiffness((u_old + u_new) / 2, v)
+        for contact in self.contacts:
+            form = form + contact.hybrid_residual(u_old, u_new, v, velocity, reference)
+        return form
+
+    def guarded_friction(self, reference):
+        """The problem with its friction law guarded by a reference state, behind the
+        model interface of the time schemes (see :class:`~nitsche_dolfinx.friction.GuardedNewton`);
+        ``reference`` maps an expression of the unknown to its value at that state."""
+        return GuardedFriction(self, reference)
+
+    def friction_terms(self, quantity: str = "work"):
+        """A friction quantity as a model with the interface of the time schemes, so that
+        the scheme supplies its slip velocity and threshold:
+
+        - ``"work"``: the friction term of the equation; with a Function ``du`` as the
+          test, ``scheme.residual(problem.friction_terms(), w, u, v, a, dt, du)`` is the
+          work of the step's friction force on the increment ``du``;
+        - ``"traction"``: ``int lambda_t . mu`` (lambda_t the friction traction);
+        - ``"slip_velocity"``: ``int u'_t . mu``.
+        """
+        if quantity not in FRICTION_QUANTITIES:
+            raise ValueError(
+                f"unknown friction quantity {quantity!r}; "
+                f"choose one of {', '.join(FRICTION_QUANTITIES)}"
+            )
+        return ContactTerms(self.frictional_contacts, FRICTION_QUANTITIES[quantity])
+
+    def contact_activity(self):
+        """The normal force tested by a cell-wise function, ``int_Gamma_C force q``, as a
+        model with the interface of the time schemes (the scheme supplies its force:
+        [P_gamma(u^{n+1})]_+ or Phi). It is zero on the cells where every contact term
+        is inactive: there the terms are affine and their Jacobian does not change."""
+        return ContactTerms(self.contacts, lambda c, u, velocity, force, q: force * q * c.ds)
+
+    def load(self, v):
+        """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
+        zero = fem.Constant(self.mesh, np.zeros(self.gdim))
+        form = ufl.inner(zero, v) * self.dx
+        for force in self._body_forces:
+            form = form + ufl.inner(force.constant, v) * self.dx
+        for tag, traction in self._tractions:
+            form = form + ufl.inner(traction.constant, v) * self.ds(tag)
+        return form
+
+    def set_time(self, t: float) -> None:
+        """Move the time-dependent loads to time ``t``."""
+        for force in self._body_forces:
+            force.set_time(t)
+        for _, traction in self._tractions:
+            traction.set_time(t)

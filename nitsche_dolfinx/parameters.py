@@ -1,0 +1,180 @@
+"""The parameters of a run, each validated once, here.
+
+The Python API, the demos' flags and the TOML configuration all build these
+objects, so that a check and its message exist in one place. A bad value raises
+:class:`ParameterError`, which knows the parameter's name and value; each entry
+point names the parameter in its own words (:meth:`ParameterError.named`):
+``gamma0=0.0`` for the API, ``--gamma0 0`` on the command line,
+``[nitsche] gamma0 = 0`` in a TOML file.
+
+The fields carry the names of the keyword arguments of the API
+(:class:`~nitsche_dolfinx.model.ContactProblem`,
+:class:`~nitsche_dolfinx.simulation.Simulation` and its ``run``), so that
+``ContactProblem(mesh, tags, material, **vars(nitsche), **vars(discretisation))``
+works.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "CONTACT_METHODS",
+    "MASS_MATRICES",
+    "Discretisation",
+    "NitscheParameters",
+    "OutputParameters",
+    "ParameterError",
+    "TimeStepping",
+    "require",
+    "require_choice",
+]
+
+#: Contact methods: Nitsche, penalty, and the mixed method (a Lagrange multiplier, CN only).
+CONTACT_METHODS = ("nitsche", "penalty", "mixed")
+#: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
+MASS_MATRICES = ("consistent", "lumped", "redistributed")
+
+
+class ParameterError(ValueError):
+    """A parameter out of its range: its name, its value and what it must be.
+
+    ``str(error)`` names the parameter as the Python API does (``dt=-0.1: ...``);
+    :meth:`named` gives the same error named as another entry point names it.
+    """
+
+    def __init__(self, name: str, value, requirement: str, label: str | None = None):
+        self.name = name
+        self.value = value
+        self.requirement = requirement
+        self.label = label if label is not None else f"{name}={value!r}"
+        super().__init__(f"{self.label}: {requirement}")
+
+    def named(self, label: str) -> ParameterError:
+        """The same error with ``label`` (e.g. ``"--gamma0 0"``) naming the value."""
+        return ParameterError(self.name, self.value, self.requirement, label)
+
+
+def require(condition: bool, name: str, value, requirement: str) -> None:
+    """Raise :class:`ParameterError` unless ``condition``."""
+    if not condition:
+        raise ParameterError(name, value, requirement)
+
+
+def _finite(value) -> bool:
+    try:
+        return bool(np.isfinite(value))
+    except TypeError:
+        return False
+
+
+def require_choice(value, choices, name: str, what: str) -> None:
+    """Raise :class:`ParameterError` unless ``value`` is one of ``choices``."""
+    require(value in choices, name, value, f"unknown {what}; choose one of {', '.join(choices)}")
+
+
+@dataclass(frozen=True)
+class TimeStepping:
+    """The time step tau and the final time T: 0 < dt <= t_end, both finite."""
+
+    dt: float
+    t_end: float
+
+    def __post_init__(self):
+        require(_finite(self.dt) and self.dt > 0, "dt", self.dt, "the time step must be positive")
+        require(
+            _finite(self.t_end) and self.t_end >= self.dt,
+            "t_end",
+            self.t_end,
+            f"the final time must be finite and at least one time step (dt={self.dt!r})",
+        )
+
+    @property
+    def num_steps(self) -> int:
+        """The number of steps, t_end / dt rounded to the nearest integer."""
+        return int(round(self.t_end / self.dt))
+
+
+@dataclass(frozen=True)
+class NitscheParameters:
+    """The contact terms: gamma_h = gamma0 h_T, the variant Theta, Coulomb's mu_f and the
+    method (see docs/method.md section 2)."""
+
+    gamma0: float = 1.0
+    nitsche_theta: float = 1.0
+    friction: float | None = None
+    method: str = "nitsche"
+
+    def __post_init__(self):
+        require(
+            _finite(self.gamma0) and self.gamma0 > 0,
+            "gamma0",
+            self.gamma0,
+            "the Nitsche parameter must be positive",
+        )
+        require(
+            _finite(self.nitsche_theta),
+            "nitsche_theta",
+            self.nitsche_theta,
+            "the Nitsche variant must be finite (1 symmetric, 0 non-symmetric, -1 skew)",
+        )
+        require(
+            self.friction is None or (_finite(self.friction) and self.friction >= 0),
+            "friction",
+            self.friction,
+            "the friction coefficient must be >= 0 (or None: frictionless)",
+        )
+        require_choice(self.method, CONTACT_METHODS, "method", "contact method")
+        require(
+            self.method != "mixed" or self.friction is None,
+            "friction",
+            self.friction,
+            "the mixed method is frictionless",
+        )
+
+
+@dataclass(frozen=True)
+class Discretisation:
+    """The displacement space (Lagrange of ``degree`` 1 or 2), the mass matrix and the
+    quadrature degree of every integral (None: chosen from the degrees)."""
+
+    degree: int = 1
+    mass: str = "consistent"
+    quadrature_degree: int | None = None
+
+    def __post_init__(self):
+        require(self.degree in (1, 2), "degree", self.degree, "the degree must be 1 or 2")
+        require_choice(self.mass, MASS_MATRICES, "mass", "mass")
+        require(
+            self.mass == "consistent" or self.degree == 1,
+            "mass",
+            self.mass,
+            f"this mass needs P1 elements, got degree={self.degree!r}",
+        )
+        require(
+            self.quadrature_degree is None or int(self.quadrature_degree) >= 0,
+            "quadrature_degree",
+            self.quadrature_degree,
+            "the quadrature degree must be >= 0",
+        )
+
+
+@dataclass(frozen=True)
+class OutputParameters:
+    """What a run writes: fields every ``output_every`` steps (0: never) and a checkpoint
+    every ``checkpoint_every`` steps (0: only when the run stops early)."""
+
+    output_every: int = 0
+    checkpoint_every: int = 0
+
+    def __post_init__(self):
+        for name in ("output_every", "checkpoint_every"):
+            value = getattr(self, name)
+            require(
+                isinstance(value, (int, np.integer)) and value >= 0,
+                name,
+                value,
+                "must be an integer >= 0 (0: never)",
+            )

@@ -1,0 +1,326 @@
+"""The run driver: a :class:`ContactProblem <nitsche_dolfinx.model.ContactProblem>`
+marched in time, with its history, fields, checkpoints, restarts and signals.
+
+:class:`Simulation` builds the stepper of the problem's method (Nitsche and
+penalty: :class:`~nitsche_dolfinx.stepper.NitscheStepper`; mixed:
+:class:`~nitsche_dolfinx.mixed.MixedStepper`) and runs it; everything around
+the steps is the same for every method::
+
+    simulation = Simulation(problem, HybridScheme(), dt=0.015, t_end=6.0)
+    history = simulation.run(out="out/bar", output_every=10, checkpoint_every=100)
+    history["energy"], history.energy_drift()
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any
+
+from .checkpoint import (
+    CheckpointError,
+    RunInterrupted,
+    SavedState,
+    StopSignals,
+    all_ranks_reach,
+    load_state,
+    save_state,
+)
+from .history import HISTORY_COLUMNS, History
+from .model import ContactProblem
+from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
+from .parameters import OutputParameters, TimeStepping
+from .schemes import TimeScheme
+from .solver import SolverError
+from .stepper import NitscheStepper, Stepper
+
+__all__ = ["Simulation"]
+
+
+def _from_stepper(name: str, doc: str) -> property:
+    return property(lambda self: getattr(self.stepper, name), doc=doc)
+
+
+class Simulation:
+    """March a :class:`~nitsche_dolfinx.model.ContactProblem` in time.
+
+    Args:
+        problem: The problem; its ``method`` chooses the stepper.
+        scheme: The time scheme (the mixed method takes Crank-Nicolson only).
+        dt: Time step tau (> 0).
+        t_end: Final time T (>= dt); the run makes round(T / tau) steps.
+        petsc_options: PETSc options for the step's SNES
+            (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+        progress: Print one line per step on rank 0.
+        reuse_jacobian: Assemble the constant bulk Jacobian once and re-factorise only
+            when the contact part of the Jacobian changes (the default); False
+            re-assembles and re-factorises at every Newton iteration.
+        preconditioner_lag: When > 0, keep the last factorised Jacobian as the
+            preconditioner of GMRES until a linear solve needs more than this many
+            iterations (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+        guard_friction: With friction, solve each step's Coulomb law by semismooth
+            Newton guarded by a reference state (the default; False: plain semismooth
+            Newton on [P_t]_r); see :class:`~nitsche_dolfinx.friction.GuardedNewton`
+            and docs/method.md section 8.
+
+    The state of the current time level is ``u``, ``v``, ``a``, ``t`` and
+    ``step_index``; ``stepper`` is the object that makes the steps.
+    """
+
+    problem = _from_stepper("problem", "The problem.")
+    scheme = _from_stepper("scheme", "The time scheme.")
+    comm = _from_stepper("comm", "The communicator of the mesh.")
+    dt = _from_stepper("dt", "The time step tau.")
+    t_end = _from_stepper("t_end", "The final time T.")
+    num_steps = _from_stepper("num_steps", "The number of steps of a run to t_end.")
+    u = _from_stepper("u", "The displacement u^n (a Function).")
+    v = _from_stepper("v", "The velocity v^n (a Function).")
+    a = _from_stepper("a", "The acceleration a^n (a Function).")
+    t = _from_stepper("t", "The current time t^n.")
+    step_index = _from_stepper("step_index", "The number n of steps made.")
+    newton_iterations = _from_stepper("newton_iterations", "Newton iterations of the last step.")
+    solver = _from_stepper("solver", "The step's SNESSolver.")
+
+    def __init__(
+        self,
+        problem: ContactProblem,
+        scheme: TimeScheme,
+        dt: float,
+        t_end: float,
+        petsc_options: dict[str, Any] | None = None,
+        progress: bool = False,
+        reuse_jacobian: bool = True,
+        preconditioner_lag: int = 0,
+        guard_friction: bool = True,
+    ):
+        time_stepping = TimeStepping(dt, t_end)
+        if problem.method == "mixed":
+            from .mixed import MixedStepper
+
+            self.stepper: Stepper = MixedStepper(problem, scheme, time_stepping, petsc_options)
+        else:
+            self.stepper = NitscheStepper(
+                problem,
+                scheme,
+                time_stepping,
+                petsc_options,
+                reuse_jacobian,
+                preconditioner_lag,
+                guard_friction,
+            )
+        self.progress = progress
+        self._probes: dict[str, Callable[[], float]] = {}
+
+    def add_probe(self, name: str, probe: Callable[[], float]) -> None:
+        """Add a history column computed by ``probe()`` at every time level (the same
+        number on every rank, e.g. a :class:`~nitsche_dolfinx.diagnostics.BoundaryAverage`)."""
+        self._probes[name] = probe
+
+    def contact_pressure(self):
+        """The contact pressure on Gamma_C of the (first) obstacle, a UFL expression of
+        the current state: lambda_h of docs/method.md section 2, or the mixed multiplier."""
+        return self.stepper.contact_pressure()
+
+    def state(self) -> dict[str, float]:
+        """The diagnostics of the current time level and the probes, the same on every rank."""
+        values = self.stepper.state()
+        for name, probe in self._probes.items():
+            values[name] = probe()
+        return values
+
+    def step(self) -> int:
+        """Advance one time step; returns the Newton iterations."""
+        return self.stepper.step()
+
+    def output_fields(self) -> dict:
+        """The fields of ``solution.xdmf``: ``{name: (function or expression, shape)}``."""
+        return self.stepper.output_fields()
+
+    # -- a run ---------------------------------------------------------------------------
+
+    def run(
+        self,
+        out: str | None = None,
+        columns=HISTORY_COLUMNS,
+        callback: Callable[[Simulation], None] | None = None,
+        output_every: int = 0,
+        checkpoint_every: int = 0,
+        restart: str | bool | None = None,
+    ) -> History:
+        """Run to t_end, or until a solver failure or a signal stops it cleanly.
+
+        Args:
+            out: Output folder for ``history.csv`` (and ``solution.xdmf`` when
+                ``output_every > 0``, and the checkpoints in ``out/checkpoint``);
+                nothing is written when omitted.
+            columns: History columns: names of :meth:`state` entries.
+            callback: Called as ``callback(simulation)`` after every step.
+            output_every: Write the XDMF fields every this many steps (0: never).
+            checkpoint_every: Write a checkpoint every this many steps and at the end
+                (0: only when the run stops early). Needs ``out``.
+            restart: Continue from a checkpoint: its folder, or True for
+                ``out/checkpoint``. The history keeps its rows up to the checkpoint
+                and continues; the XDMF series is appended to (see
+                :func:`~nitsche_dolfinx.output.continue_solution`).
+
+        Returns:
+            The :class:`~nitsche_dolfinx.history.History`, one row of :meth:`state`
+            values per time level (after a restart, the rows kept from
+            ``history.csv`` come first).
+
+        Raises:
+            SolverError: A step's Newton solve failed. The history and the fields stay
+                readable up to the last converged step, and that state is saved in
+                ``out/checkpoint`` (``error.checkpoint``, a
+                :class:`~nitsche_dolfinx.checkpoint.SavedState`).
+            RunInterrupted: SIGINT or SIGTERM arrived (on any rank): every rank stops
+                after the same step, which is saved the same way.
+            CheckpointError: The checkpoint to restart from is missing or does not fit.
+        """
+        output = OutputParameters(output_every, checkpoint_every)
+        run = _Run(self, out, list(columns), output)
+        run.open(restart)
+        # failures are compared on a communicator of their own (see all_ranks_reach)
+        errors = self.comm.Dup() if self.comm.size > 1 else None
+        collective_exit = False
+        try:
+            with StopSignals() as signals:
+                run.march(signals, callback)
+            collective_exit = True
+        except (SolverError, RunInterrupted, CheckpointError):
+            collective_exit = True  # raised on every rank alike
+            raise
+        except BaseException:
+            # closing the XDMF file is collective: if the other ranks did not fail, they
+            # wait elsewhere, and the file is left to the end of the process
+            collective_exit = errors is None or all_ranks_reach(errors)
+            raise
+        finally:
+            run.close(collective_exit)
+            if collective_exit and errors is not None:
+                errors.Free()
+        return run.history
+
+    # -- checkpoints ---------------------------------------------------------------------
+
+    def save_checkpoint(self, folder: str, columns=None) -> SavedState:
+        """Save the current time level in the checkpoint folder ``folder`` (collective;
+        see :func:`~nitsche_dolfinx.checkpoint.save_state`)."""
+        return save_state(self.stepper, folder, columns)
+
+    def load_checkpoint(self, folder: str, columns=None) -> SavedState:
+        """Restore the time level saved in ``folder`` (collective; any partition of the
+        same mesh reloads it, see :func:`~nitsche_dolfinx.checkpoint.load_state`)."""
+        return load_state(self.stepper, folder, columns)
+
+
+class _Run:
+    """One call of :meth:`Simulation.run`: its files, its checkpoints and its loop."""
+
+    def __init__(self, simulation: Simulation, out, columns: list[str], output: OutputParameters):
+        if output.checkpoint_every and out is None:
+            raise ValueError("checkpoint_every needs an output folder (out)")
+        self.simulation, self.out, self.columns, self.output = simulation, out, columns, output
+        self.comm = simulation.comm
+        self.checkpoints = os.path.join(out, "checkpoint") if out is not None else None
+        self.last_saved: SavedState | None = None  # the checkpoint of the current step
+        self.restarted = False
+        self.history = History()
+        self.writer: HistoryWriter | None = None
+        self.fields: SolutionWriter | None = None
+
+    def open(self, restart) -> None:
+        """Load the checkpoint to restart from, if any, and open the output files."""
+        sim = self.simulation
+        if restart is True and self.checkpoints is None:
+            raise ValueError("restart=True needs an output folder (out), or give the folder")
+        if self.out is not None:
+            ensure_directory(self.out, self.comm)
+        if restart not in (None, False):
+            source = self.checkpoints if restart is True else str(restart)
+            saved = sim.load_checkpoint(source, self.columns)
+            self.restarted = True
+            if source == self.checkpoints:
+                self.last_saved = saved
+            if sim.progress and self.comm.rank == 0:
+                print(f"restart: from {source}, step {saved.step}, t = {saved.t:.6g}", flush=True)
+        if self.out is None:
+            return
+        path = os.path.join(self.out, "history.csv")
+        resume_at = sim.t if self.restarted else None
+        self.writer = HistoryWriter(path, self.columns, self.comm, resume_at=resume_at)
+        self.history.extend(self.writer.previous_rows)
+        if self.output.output_every > 0:
+            self.fields = self._solution_writer()
+
+    def _solution_writer(self) -> SolutionWriter:
+        sim = self.simulation
+        path, append = os.path.join(self.out, "solution.xdmf"), False
+        if self.restarted:
+            path, append = continue_solution(path, sim.t, sim.step_index, self.comm)
+            moved = not append and os.path.basename(path) != "solution.xdmf"
+            if moved and sim.progress and self.comm.rank == 0:
+                print(
+                    f"restart: solution.xdmf holds fields after t = {sim.t:.6g} (or cannot be "
+                    f"read); the fields from step {sim.step_index} on go to {path}",
+                    flush=True,
+                )
+        return SolutionWriter(path, sim.problem.mesh, sim.output_fields(), append=append)
+
+    def march(self, signals: StopSignals, callback) -> None:
+        """Record the first level, then step to t_end; checkpoint as asked, and on a stop."""
+        sim, every = self.simulation, self.output.checkpoint_every
+        if not self.restarted or self.writer is None:
+            self.record(write=not self.restarted)  # a restarted level is already written
+        while sim.step_index < sim.num_steps:
+            try:
+                sim.step()
+            except SolverError as error:
+                error.checkpoint = self.save_on_stop()
+                raise
+            self.record()
+            if callback is not None:
+                callback(sim)
+            if every and sim.step_index % every == 0:
+                self.last_saved = sim.save_checkpoint(self.checkpoints, self.columns)
+            number = signals.requested(self.comm)
+            if number:
+                raise RunInterrupted(number, sim.step_index, sim.t, self.save_on_stop())
+        if every and (self.last_saved is None or self.last_saved.step != sim.step_index):
+            sim.save_checkpoint(self.checkpoints, self.columns)
+
+    def record(self, write: bool = True) -> None:
+        """Add the current level to the history, and write it (rows, fields, progress)."""
+        sim = self.simulation
+        values = sim.state()
+        self.history.append(values)
+        if not write:
+            return
+        if self.writer is not None:
+            self.writer.write(values)
+        if self.fields is not None and sim.step_index % self.output.output_every == 0:
+            sim.stepper.before_output()
+            self.fields.write(sim.t)
+        if sim.progress and self.comm.rank == 0:
+            print(
+                f"step {sim.step_index:5d}  t = {sim.t:9.4f}"
+                f"  newton = {values['newton_iterations']:2d}  E = {values['energy']: .10e}"
+                f"  contact force = {values['contact_force']:.4e}",
+                flush=True,
+            )
+
+    def save_on_stop(self) -> SavedState | None:
+        """The checkpoint of the last completed step when a run stops early, if it has a place."""
+        if self.checkpoints is None:
+            return None
+        sim = self.simulation
+        if self.last_saved is not None and self.last_saved.step == sim.step_index:
+            return self.last_saved
+        return sim.save_checkpoint(self.checkpoints, self.columns)
+
+    def close(self, collective: bool) -> None:
+        """Close the history; the fields too when every rank gets here (collective)."""
+        if self.writer is not None:
+            self.writer.close()
+        if collective and self.fields is not None:
+            self.fields.close()

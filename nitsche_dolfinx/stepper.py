@@ -1,0 +1,349 @@
+"""One time step of a :class:`~nitsche_dolfinx.model.ContactProblem`, and its state.
+
+A stepper holds the state (u^n, v^n, a^n) at t^n and advances it by one step of
+its time scheme: one SNES solve for the scheme's unknown ``w``
+(docs/method.md section 3), then the kinematic update. It reports the
+diagnostics of the time level (:meth:`NitscheStepper.state`), the fields to write
+and the functions a checkpoint must hold.
+:class:`~nitsche_dolfinx.simulation.Simulation` drives any stepper of the
+:class:`Stepper` protocol through a run; :class:`NitscheStepper` steps the Nitsche
+and penalty methods, :class:`~nitsche_dolfinx.mixed.MixedStepper` the mixed one.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Protocol
+
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from . import compat
+from .diagnostics import Diagnostics
+from .friction import FrictionOutput, GuardedNewton
+from .material import von_mises
+from .model import ContactProblem, as_array
+from .parameters import ParameterError, TimeStepping
+from .schemes import HybridScheme, TimeScheme
+from .solver import SNESSolver, SolverError
+
+__all__ = [
+    "NitscheStepper",
+    "Stepper",
+    "initial_acceleration",
+    "interpolate_initial",
+    "massless_velocity",
+]
+
+
+class Stepper(Protocol):
+    """What :class:`~nitsche_dolfinx.simulation.Simulation` needs of a stepper.
+
+    Attributes: ``problem``, ``scheme``, ``comm``, ``dt``, ``num_steps``; the state
+    ``u``, ``v``, ``a`` (Functions on ``problem.V``), ``t``, ``step_index``,
+    ``newton_iterations`` and ``step_seconds`` of the last step.
+    """
+
+    def step(self) -> int:
+        """Advance one step; return the Newton iterations."""
+
+    def state(self) -> dict[str, float]:
+        """The diagnostics of the current time level, identical on every rank."""
+
+    def output_fields(self) -> dict:
+        """``{name: (Function or UFL expression, value shape)}`` for the field output."""
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """Everything the next step depends on, by name."""
+
+    def describe(self) -> dict[str, Any]:
+        """What a checkpoint must share with the stepper that reloads it."""
+
+    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
+        """Move to a time level whose functions were just loaded."""
+
+
+def massless_velocity(massless, u, u1, v1, a1, dt) -> None:
+    """At massless dofs (redistributed mass) the scheme's velocity update means nothing:
+    the node follows its constraint. Report the step's mean velocity there instead."""
+    if massless.size:
+        v1[massless] = (u1[massless] - u[massless]) / dt
+        a1[massless] = 0.0
+
+
+def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
+    """Set ``target`` to an initial value: None (zero), a Function, a function of the
+    coordinates returning (gdim, N) or (N,) values, or a constant vector."""
+    if value is None:
+        target.x.array[:] = 0.0
+    elif isinstance(value, fem.Function):
+        target.interpolate(value)
+    elif callable(value):
+        target.interpolate(lambda x: np.asarray(value(x), dtype=float).reshape(gdim, -1))
+    else:
+        array = as_array(value, (gdim,), "initial value")
+        target.interpolate(lambda x: np.tile(array[:, None], (1, x.shape[1])))
+    target.x.scatter_forward()
+
+
+def initial_acceleration(
+    problem: ContactProblem, a: fem.Function, stiffness, bc_dofs, petsc_options=None
+) -> None:
+    """Solve M a0 = L(0) - ``stiffness`` for ``a`` (docs/method.md section 3), with a0 = 0
+    at the Dirichlet dofs ``bc_dofs`` and at the massless dofs of a redistributed mass.
+
+    ``stiffness(test)`` is the operator at u0 tested with ``test``."""
+    V = problem.V
+    test = ufl.TestFunction(V)
+    F0 = problem.inertia(a, test) + stiffness(test) - problem.load(test)
+    zero = fem.Function(V)
+    bcs = [fem.dirichletbc(zero, dofs) for dofs in bc_dofs]
+    diagonal = problem.mass_diagonal()
+    if diagonal is not None:
+        # massless nodes (redistributed mass) have no acceleration of their own
+        with diagonal.localForm() as local:
+            bs = V.dofmap.index_map_bs
+            massless = np.flatnonzero(local.array.reshape(-1, bs)[:, 0] == 0.0)
+        bcs.append(fem.dirichletbc(zero, massless.astype(np.int32)))
+    a.x.array[:] = 0.0
+    solver = SNESSolver(F0, a, bcs, petsc_options=petsc_options, mass_diagonal=diagonal)
+    solver.solve()
+    solver.destroy()
+
+
+def checkpoint_description(stepper) -> dict[str, Any]:
+    """The description a checkpoint of any stepper shares with the run that reloads it."""
+    problem = stepper.problem
+    V = problem.V
+    friction = problem.friction
+    return {
+        "friction": 0.0 if friction is None else float(np.asarray(friction.value)),
+        "dofs": int(V.dofmap.index_map.size_global * V.dofmap.index_map_bs),
+        "dt": stepper.dt,
+        "scheme": stepper.scheme.describe(),
+        "method": problem.method,
+        "mass": problem.mass,
+        "degree": problem.degree,
+        "gamma0": float(np.asarray(problem.gamma0.value)),
+        "nitsche_theta": float(np.asarray(problem.nitsche_theta.value)),
+        "functions": sorted(stepper.checkpoint_functions()),
+    }
+
+
+class NitscheStepper:
+    """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` with Nitsche or penalty
+    contact by a time scheme: one SNES solve per step.
+
+    The arguments are those of :class:`~nitsche_dolfinx.simulation.Simulation`, which
+    documents them.
+    """
+
+    #: How many times a step may move the reference of the guarded friction law.
+    guard_updates = 10
+
+    def __init__(
+        self,
+        problem: ContactProblem,
+        scheme: TimeScheme,
+        time_stepping: TimeStepping,
+        petsc_options: dict[str, Any] | None = None,
+        reuse_jacobian: bool = True,
+        preconditioner_lag: int = 0,
+        guard_friction: bool = True,
+    ):
+        if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
+            raise ParameterError(
+                "mass",
+                problem.mass,
+                "not with the hybrid scheme: the massless contact nodes are then left to "
+                "alternate around the obstacle (measured: E grows 48-fold on the bar); use "
+                "the redistributed mass with Crank-Nicolson, theta or Newmark",
+            )
+        self.problem, self.scheme = problem, scheme
+        self.dt, self.t_end = time_stepping.dt, time_stepping.t_end
+        self.num_steps = time_stepping.num_steps
+        self.comm = problem.mesh.comm
+        V = problem.V
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.w = fem.Function(V, name="unknown")
+        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
+
+        fdim = problem.mesh.topology.dim - 1
+        self._bc_dofs = [
+            (fem.locate_dofs_topological(V, fdim, problem.facets(tag)), value)
+            for tag, value in problem.dirichlet
+        ]
+        self._w_bc = fem.Function(V)
+        bcs = [fem.dirichletbc(self._w_bc, dofs) for dofs, _ in self._bc_dofs]
+        dt_c = fem.Constant(problem.mesh, self.dt)
+        self.solver = self._step_solver(
+            dt_c, bcs, petsc_options, reuse_jacobian, preconditioner_lag, guard_friction
+        )
+        # the guarded solves set their own absolute tolerance from these at every step
+        self._tolerances = self.solver.snes.getTolerances()[:2]
+        self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self.friction_dissipation = 0.0
+        self._energy_before = None  # E_Theta^n of the last step
+        self._energy_cache = None  # (step index, E_Theta) of the last state()
+        self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
+        self._massless = problem.massless_dofs()
+        self._initialize(petsc_options)
+
+    def _step_solver(self, dt_c, bcs, petsc_options, reuse_jacobian, lag, guard_friction):
+        """The SNES of the step's equation F(w) = 0 (docs/method.md section 8)."""
+        problem, scheme = self.problem, self.scheme
+        state = (self.w, self.u, self.v, self.a, dt_c)
+        self._guarded, model = None, problem
+        if problem.frictional and guard_friction:
+            self._guarded = GuardedNewton(problem, scheme, state)
+            model = self._guarded.model
+        F = scheme.residual(model, *state, ufl.TestFunction(problem.V))
+        activity = None
+        if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
+            cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
+            activity = scheme.residual(problem.contact_activity(), *state, cellwise)
+        # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
+        # the unknown, and only the contact terms on Gamma_C change the Jacobian.
+        return SNESSolver(
+            F,
+            self.w,
+            bcs,
+            petsc_options=petsc_options,
+            affine_cell_terms=reuse_jacobian,
+            mass_diagonal=problem.mass_diagonal(),
+            preconditioner_lag=lag if reuse_jacobian else 0,
+            facet_activity=activity,
+            symmetric=problem.symmetric_jacobian,
+        )
+
+    def _set_dirichlet(self, target: np.ndarray, t: float) -> None:
+        """Write the Dirichlet values at time t into the dof array ``target``."""
+        bs = self.problem.V.dofmap.index_map_bs
+        for dofs, value in self._bc_dofs:
+            target.reshape(-1, bs)[dofs] = value.value_at(t)
+
+    def _initialize(self, petsc_options) -> None:
+        """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""
+        problem, gdim = self.problem, self.problem.gdim
+        interpolate_initial(self.u, problem.initial_displacement, gdim)
+        interpolate_initial(self.v, problem.initial_velocity, gdim)
+        self._set_dirichlet(self.u.x.array, 0.0)
+        problem.set_time(0.0)
+        initial_acceleration(
+            problem,
+            self.a,
+            lambda test: problem.operator(self.u, test, self.v),
+            [dofs for dofs, _ in self._bc_dofs],
+            petsc_options,
+        )
+
+    def state(self) -> dict[str, float]:
+        """Diagnostics at the current time level, identical on every rank."""
+        values = {"t": self.t, **self.diagnostics.compute()}
+        self._energy_cache = (self.step_index, values["energy_theta"])
+        values["friction_dissipation"] = self.friction_dissipation
+        values["energy_balance_residual"] = (
+            0.0
+            if self._energy_before is None
+            else values["energy_theta"] - self._energy_before + self.friction_dissipation
+        )
+        values["newton_iterations"] = self.newton_iterations
+        values["step_seconds"] = self.step_seconds
+        return values
+
+    def step(self) -> int:
+        """Advance one time step; returns the Newton iterations."""
+        start = time.perf_counter()
+        problem, scheme, dt = self.problem, self.scheme, self.dt
+        t_new = (self.step_index + 1) * dt  # no drift from adding dt up
+        problem.set_time(scheme.equation_time(self.t, dt))
+        u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
+        if self._bc_dofs:
+            u_free, _, _ = scheme.kinematics(u, v, a, 0.0, dt)
+            target = u_free.copy()
+            self._set_dirichlet(target, t_new)
+            self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
+        self._energy_before = self._energy_theta()
+        self.w.x.array[:] = a  # initial guess: the last acceleration
+        try:
+            iterations = self._solve()
+        except SolverError as error:
+            error.add_context(step=self.step_index + 1, t=t_new)
+            raise
+        u1, v1, a1 = scheme.kinematics(u, v, a, self.w.x.array, dt)
+        massless_velocity(self._massless, u, u1, v1, a1, dt)
+        if self._friction is not None:  # before u^n is overwritten
+            self.friction_dissipation = self._friction.work(u1 - u)
+        u[:], v[:], a[:] = u1, v1, a1
+        self.t = t_new
+        self.step_index += 1
+        problem.set_time(self.t)
+        self.newton_iterations = iterations
+        self.step_seconds = time.perf_counter() - start
+        return iterations
+
+    def _energy_theta(self) -> float:
+        """E_Theta at the current level (from the last state() when it was at this level)."""
+        if self._energy_cache is not None and self._energy_cache[0] == self.step_index:
+            return self._energy_cache[1]
+        return self.diagnostics.compute()["energy_theta"]
+
+    def _solve(self) -> int:
+        """The step's Newton solve from the current ``w``; returns the Newton iterations.
+        With friction, guarded (see :class:`~nitsche_dolfinx.friction.GuardedNewton`)."""
+        if self._guarded is None:
+            return self.solver.solve()
+        guarded, solver = self._guarded, self.solver
+        rtol, atol = self._tolerances
+        tolerance = max(atol, rtol * guarded.coulomb_residual(solver))
+        try:
+            return guarded.solve(solver, self._coasting_unknown(), tolerance, self.guard_updates)
+        except SolverError as error:
+            error.residual_norm = guarded.coulomb_residual(solver, new_coefficients=False)
+            raise
+
+    def _coasting_unknown(self) -> np.ndarray:
+        """The unknown w of the step whose new velocity is v^n: the state coasting at
+        constant velocity, where the guarded friction law takes its first reference."""
+        u, v, a, dt = self.u.x.array, self.v.x.array, self.a.x.array, self.dt
+        _, v_0, _ = self.scheme.kinematics(u, v, a, 0.0, dt)
+        _, v_1, _ = self.scheme.kinematics(u, v, a, 1.0, dt)
+        return (v - v_0) / (v_1 - v_0)
+
+    def contact_pressure(self):
+        """The contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ of the first
+        obstacle, as a UFL expression on its Gamma_C (docs/method.md section 2)."""
+        return self.problem.contacts[0].pressure(self.u)
+
+    def output_fields(self) -> dict:
+        """Displacement, velocity, von Mises stress, and with friction the slip velocity
+        and the friction traction on Gamma_C (:class:`~nitsche_dolfinx.friction.FrictionOutput`)."""
+        shape = (self.problem.gdim,)
+        fields = {
+            "displacement": (self.u, shape),
+            "velocity": (self.v, shape),
+            "von_mises": (von_mises(self.u, self.problem.material), ()),
+        }
+        if self._friction is not None:
+            for field in self._friction.fields:
+                fields[field.function.name] = (field.function, shape)
+        return fields
+
+    def before_output(self) -> None:
+        """Update the boundary projections of the friction fields (only when written)."""
+        if self._friction is not None:
+            self._friction.update_fields()
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+
+    def describe(self) -> dict[str, Any]:
+        return checkpoint_description(self)
+
+    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
+        self.t, self.step_index = t, step_index
+        self.newton_iterations, self.step_seconds = newton_iterations, 0.0
+        self.problem.set_time(t)
