@@ -1,4 +1,4 @@
-"""Generate the ball of the 3D impact test (SPEC section 5) as a gmsh ``.msh`` file.
+"""Generate the ball of the 3D impact test (docs/method.md section 5) as a gmsh ``.msh`` file.
 
 The ball has radius 20 and centre (0, 0, 20), so it touches the plane z = 0.
 The geometry is :func:`nitsche_dolfinx.shapes.build_ball_model`, the same code

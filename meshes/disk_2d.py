@@ -1,4 +1,4 @@
-"""Generate the disk of the 2D impact test (SPEC section 5) as a gmsh ``.msh`` file.
+"""Generate the disk of the 2D impact test (docs/method.md section 5) as a gmsh ``.msh`` file.
 
 The disk has radius 20 and centre (0, 20), so it touches the line y = 0.
 The geometry is :func:`nitsche_dolfinx.shapes.build_disk_model`, the same code

@@ -1,4 +1,4 @@
-"""The Nitsche contact terms of SPEC section 2, as pure functions of UFL objects.
+"""The Nitsche contact terms of docs/method.md section 2, as pure functions of UFL objects.
 
 Notation of the talk, with ``gamma_h = gamma0 h_T``::
 
@@ -8,7 +8,7 @@ Notation of the talk, with ``gamma_h = gamma0 h_T``::
     contact term    = int_Gamma_C (1/gamma_h) [P_gamma(u)]_+ P_Thgamma(v)
     lambda_h        = -(1/gamma_h) [P_gamma(u)]_+        (contact pressure, <= 0)
 
-Coulomb friction (coefficient mu_f, SPEC section 2), with ``[x]_r`` the projection
+Coulomb friction (coefficient mu_f, docs/method.md section 2), with ``[x]_r`` the projection
 onto the ball of radius r and ``u'_t`` the tangential velocity of the time scheme::
 
     P_t(u)          = u'_t - gamma_h sigma_t(u)

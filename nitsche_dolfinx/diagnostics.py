@@ -18,7 +18,7 @@ from petsc4py import PETSc
 
 from . import compat
 
-__all__ = ["BoundaryAverage", "BoundaryField", "Diagnostics", "assemble_global"]
+__all__ = ["BoundaryAverage", "BoundaryField", "Diagnostics", "Penetration", "assemble_global"]
 
 
 def assemble_global(form, comm) -> float:
@@ -104,6 +104,37 @@ def _total(forms: list, zero):
     return sum(forms[1:], forms[0]) if forms else zero
 
 
+class Penetration:
+    """The largest penetration u_n - g over every Gamma_C of a model, at the dofs.
+
+    Args:
+        model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
+        u: Displacement at the current time level.
+    """
+
+    def __init__(self, model, u: fem.Function):
+        self.comm = model.mesh.comm
+        # u_n - g at the dofs of Gamma_C, interpolated into a scalar space
+        self._fields = []
+        if model.contacts:
+            P = compat.function_space(model.mesh, "Lagrange", model.degree)
+            fdim = model.mesh.topology.dim - 1
+            for contact, tag in zip(model.contacts, model.contact_tags):
+                field = fem.Function(P)
+                expression = compat.expression(contact.penetration(u), P)
+                dofs = fem.locate_dofs_topological(P, fdim, model.facets(tag))
+                self._fields.append((field, expression, dofs))
+
+    def max(self) -> float:
+        """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""
+        local = -np.inf
+        for field, expression, dofs in self._fields:
+            field.interpolate(expression)
+            if len(dofs):
+                local = max(local, float(field.x.array[dofs].max()))
+        return self.comm.allreduce(local, op=MPI.MAX)
+
+
 class Diagnostics:
     """Energies, contact force, contact area and penetration of a displacement/velocity pair.
 
@@ -135,27 +166,7 @@ class Diagnostics:
             "contact_area": _total([c.area(u) for c in model.contacts], zero),
         }
         self._forms = {name: fem.form(form) for name, form in forms.items()}
-
-        # penetration u_n - g at the dofs of Gamma_C, interpolated into a scalar space
-        self._penetration = []
-        if model.contacts:
-            P = compat.function_space(model.mesh, "Lagrange", model.degree)
-            fdim = model.mesh.topology.dim - 1
-            for contact, tag in zip(model.contacts, model.contact_tags):
-                field = fem.Function(P)
-                expression = compat.expression(contact.penetration(u), P)
-                facets = model.facets(tag)
-                dofs = fem.locate_dofs_topological(P, fdim, facets)
-                self._penetration.append((field, expression, dofs))
-
-    def penetration_max(self) -> float:
-        """max over Gamma_C of u_n - g at the dofs (> 0 means penetration); -inf without contact."""
-        local = -np.inf
-        for field, expression, dofs in self._penetration:
-            field.interpolate(expression)
-            if len(dofs):
-                local = max(local, float(field.x.array[dofs].max()))
-        return self.comm.allreduce(local, op=MPI.MAX)
+        self.penetration = Penetration(model, u)
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""
@@ -178,5 +189,5 @@ class Diagnostics:
             "potential": values["potential"],
             "contact_force": values["contact_force"],
             "contact_area": values["contact_area"],
-            "penetration_max": self.penetration_max(),
+            "penetration_max": self.penetration.max(),
         }

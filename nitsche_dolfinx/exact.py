@@ -1,4 +1,4 @@
-"""The exact solution of the 1D bar with multiple impacts (SPEC section 5).
+"""The exact solution of the 1D bar with multiple impacts (docs/method.md section 5).
 
 Omega = (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0 (u(t, 0) >= 0),
 u0(x) = 1/2 - x/2, v0 = 0. Periodic with period 3 and energy 1/8.

@@ -1,6 +1,6 @@
 """Linear elastic material and the stress quantities of the contact conditions.
 
-Conventions of SPEC section 1: ``sigma(u) = lambda tr(eps(u)) I + 2 mu eps(u)``
+Conventions of docs/method.md section 1: ``sigma(u) = lambda tr(eps(u)) I + 2 mu eps(u)``
 (plane strain in 2D, ``sigma = E u'`` in 1D), ``sigma_n(u) = (sigma(u) n) . n_c``
 with ``n`` the outward unit normal of the mesh and ``n_c`` the obstacle normal,
 and ``sigma_t(u) = sigma(u) n - sigma_n(u) n_c``.

@@ -30,7 +30,7 @@ from dolfinx import fem
 from . import compat
 from .checkpoint import node_coordinates
 from .contact import positive_part
-from .diagnostics import assemble_global
+from .diagnostics import Penetration, assemble_global
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
@@ -65,6 +65,22 @@ def _matching_dofs(target, source) -> np.ndarray:
     return permutation
 
 
+def _check_mixed(problem: ContactProblem, scheme) -> None:
+    """What the mixed method needs: Crank-Nicolson, one obstacle, homogeneous Dirichlet data."""
+    if not isinstance(scheme, CrankNicolson):
+        raise ParameterError(
+            "scheme",
+            scheme.describe(),
+            "the mixed method is time-discretised by Crank-Nicolson only",
+        )
+    if len(problem.contacts) != 1:
+        raise ParameterError(
+            "obstacles", len(problem.contacts), "the mixed method takes exactly one obstacle"
+        )
+    if any(v.time_dependent or np.any(v.value_at(0.0)) for _, v in problem.dirichlet):
+        raise ValueError("the mixed method supports homogeneous Dirichlet values only")
+
+
 class MixedStepper:
     """Crank-Nicolson steps of a :class:`~nitsche_dolfinx.model.ContactProblem` whose
     method is ``"mixed"``: contact by a Lagrange multiplier, one obstacle.
@@ -81,28 +97,40 @@ class MixedStepper:
         time_stepping: TimeStepping,
         petsc_options: dict[str, Any] | None = None,
     ):
-        if not isinstance(scheme, CrankNicolson):
-            raise ParameterError(
-                "scheme",
-                scheme.describe(),
-                "the mixed method is time-discretised by Crank-Nicolson only",
-            )
-        if len(problem.contacts) != 1:
-            raise ParameterError(
-                "obstacles", len(problem.contacts), "the mixed method takes exactly one obstacle"
-            )
-        if any(v.time_dependent or np.any(v.value_at(0.0)) for _, v in problem.dirichlet):
-            raise ValueError("the mixed method supports homogeneous Dirichlet values only")
+        _check_mixed(problem, scheme)
         self.problem, self.scheme = problem, scheme
         self.dt, self.t_end = time_stepping.dt, time_stepping.t_end
         self.num_steps = time_stepping.num_steps
         self.comm = problem.mesh.comm
-        mesh, gdim = problem.mesh, problem.gdim
-        contact, tag = problem.contacts[0], problem.contact_tags[0]
-        fdim = mesh.topology.dim - 1
+        self.contact, self.tag = problem.contacts[0], problem.contact_tags[0]
+        V0, Q = self._spaces()
+        bcs = self._boundary_conditions(V0, Q)
+        diagonal = self._mass_diagonal_on_W()
+        self.solver = SNESSolver(
+            self._residual(), self.x, bcs, petsc_options=petsc_options, mass_diagonal=diagonal
+        )
+        # energies: E = kinetic + elastic - L(u), no Nitsche correction
+        contact, lam = self.contact, self._lambda
+        self._energy_forms = [
+            fem.form(0.5 * problem.material.rho * ufl.inner(self.v, self.v) * problem.dx)
+            if diagonal is None
+            else None,
+            fem.form(0.5 * problem.bulk_stiffness(self.u, self.u)),
+            fem.form(-problem.load(self.u)),
+            fem.form(-lam * contact.ds),
+        ]
+        self._area = fem.form(ufl.conditional(ufl.lt(lam, 0.0), 1.0, 0.0) * contact.ds)
+        self._penetration = Penetration(problem, self.u)
+        self._massless = problem.massless_dofs()
+        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
+        self._initialize()
 
+    def _spaces(self):
+        """The mixed space W of (a, lambda), the state on V and the unknown on W; returns
+        the collapsed displacement and multiplier spaces."""
+        problem = self.problem
         W = compat.mixed_function_space(
-            mesh, [("Lagrange", problem.degree, (gdim,)), ("Lagrange", 1, ())]
+            problem.mesh, [("Lagrange", problem.degree, (problem.gdim,)), ("Lagrange", 1, ())]
         )
         self.W = W
         V0, u_dofs = compat.collapse(W.sub(0))
@@ -115,14 +143,17 @@ class MixedStepper:
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
         self.x = fem.Function(W)  # the unknown (a^{n+1}, lambda^{n+1})
-        w, lam = ufl.split(self.x)
-        test_v, test_mu = ufl.TestFunctions(W)
-        self._lambda = lam
+        self._lambda = ufl.split(self.x)[1]
         # the multiplier on its own space, for checkpoints (the next step starts from it)
         self.multiplier = fem.Function(Q, name="multiplier")
         self._lambda_index = np.asarray(lambda_dofs)
+        return V0, Q
 
-        # Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C
+    def _boundary_conditions(self, V0, Q) -> list:
+        """Dirichlet conditions on the displacement part, and lambda = 0 off Gamma_C."""
+        problem, W = self.problem, self.W
+        mesh = problem.mesh
+        fdim = mesh.topology.dim - 1
         bcs = []
         for bc_tag, _ in problem.dirichlet:
             dofs = fem.locate_dofs_topological((W.sub(0), V0), fdim, problem.facets(bc_tag))
@@ -132,40 +163,31 @@ class MixedStepper:
         every = fem.locate_dofs_topological(
             (W.sub(1), Q), 0, np.arange(num_vertices, dtype=np.int32)
         )
-        on_contact = fem.locate_dofs_topological((W.sub(1), Q), fdim, problem.facets(tag))
+        on_contact = fem.locate_dofs_topological((W.sub(1), Q), fdim, problem.facets(self.tag))
         off = ~np.isin(every[0], on_contact[0])
         bcs.append(fem.dirichletbc(fem.Function(Q), [every[0][off], every[1][off]], W.sub(1)))
+        return bcs
 
-        dt_c = fem.Constant(mesh, self.dt)
+    def _residual(self):
+        """The step's equation and the Alart-Curnier complementarity (docs/method.md
+        section 2), Crank-Nicolson in time."""
+        problem, contact = self.problem, self.contact
+        w, lam = ufl.split(self.x)
+        test_v, test_mu = ufl.TestFunctions(self.W)
+        dt_c = fem.Constant(problem.mesh, self.dt)
         u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, dt_c)
         # the Alart-Curnier parameter does not change the solution; h/E keeps the rows scaled
         r = problem.h / problem.material.E
         complementarity = (
             lam + positive_part(contact.normal_displacement(u1) - contact.gap - r * lam) / r
         )
-        F = (
-            problem.inertia(w, test_v)  # zero for a diagonal mass, added below
+        return (
+            problem.inertia(w, test_v)  # zero for a diagonal mass, added by the solver
             + problem.bulk_stiffness(u1, test_v)
             - lam * contact.normal_displacement(test_v) * contact.ds
             - problem.load(test_v)
             + complementarity * test_mu * contact.ds
         )
-        diagonal = self._mass_diagonal_on_W()
-        self.solver = SNESSolver(
-            F, self.x, bcs, petsc_options=petsc_options, mass_diagonal=diagonal
-        )
-        # energies: E = kinetic + elastic - L(u), no Nitsche correction
-        self._energy_forms = [
-            fem.form(0.5 * problem.material.rho * ufl.inner(self.v, self.v) * problem.dx)
-            if diagonal is None
-            else None,
-            fem.form(0.5 * problem.bulk_stiffness(self.u, self.u)),
-            fem.form(-problem.load(self.u)),
-            fem.form(-lam * contact.ds),
-        ]
-        self._massless = problem.massless_dofs()
-        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
-        self._initialize()
 
     def _mass_diagonal_on_W(self):
         """The problem's diagonal mass (lumped, redistributed) on the displacement dofs of W."""
@@ -205,7 +227,8 @@ class MixedStepper:
         )
 
     def state(self) -> dict:
-        """t, the energies (E = E_Theta here: no Nitsche term) and the contact force."""
+        """t, the energies (E = E_Theta here: no Nitsche term), the contact force
+        -int lambda, the contact area (where lambda < 0) and the largest penetration."""
         kinetic, elastic, potential, force = (
             self._kinetic() if form is None else assemble_global(form, self.comm)
             for form in self._energy_forms
@@ -219,6 +242,8 @@ class MixedStepper:
             "elastic": elastic,
             "potential": potential,
             "contact_force": force,
+            "contact_area": assemble_global(self._area, self.comm),
+            "penetration_max": self._penetration.max(),
             "newton_iterations": self.newton_iterations,
             "step_seconds": self.step_seconds,
         }

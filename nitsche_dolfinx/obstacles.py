@@ -2,7 +2,7 @@
 
 The obstacle normal is ``n_c = -grad d / |grad d|``: it points from the body
 into the obstacle. The initial gap is ``g(x) = d(x)`` in the reference
-configuration (SPEC section 1).
+configuration (docs/method.md section 1).
 """
 
 from __future__ import annotations

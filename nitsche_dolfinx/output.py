@@ -1,4 +1,4 @@
-"""Output of SPEC section 6: ``history.csv`` and an XDMF time series for ParaView.
+"""Output of docs/method.md section 6: ``history.csv`` and an XDMF time series for ParaView.
 
 Both stay readable at every moment of a run (each row and each time level is
 flushed as written), and both can be continued by a restarted run: the history

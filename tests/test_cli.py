@@ -49,7 +49,7 @@ def short_config(tmp, text=None, **replace):
 
 @pytest.mark.mpi
 def test_cli_runs_shipped_config(mpi_tmp_path):
-    """In process, on every rank: `nitsche-dolfinx run` writes the SPEC history and XDMF."""
+    """In process, on every rank: `nitsche-dolfinx run` writes its history and XDMF."""
     comm = MPI.COMM_WORLD
     path = short_config(mpi_tmp_path) if comm.rank == 0 else None
     path = comm.bcast(path, root=0)
@@ -82,7 +82,7 @@ def test_cli_subprocess_progress_and_quiet(tmp_path):
         ({'file = "ring_2d.msh"': 'file = "missing.msh"'}, "missing.msh' does not exist"),
         ({"tag = 1": "tag = 42"}, "facet tag 42 is not in the mesh"),
         ({"[scheme]": "[schemes]"}, "unknown table [schemes]"),
-        ({"dt = 0.005": "dt = -0.1"}, "dt=-0.1"),
+        ({"dt = 0.005": "dt = -0.1"}, "[scheme] dt = -0.1"),
     ],
     ids=["unknown-key", "wrong-type", "missing-mesh", "absent-tag", "unknown-table", "bad-dt"],
 )

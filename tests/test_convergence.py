@@ -74,7 +74,7 @@ def test_space_time_error_is_exact_for_the_exact_solution():
     simulation = cases.bar_simulation(make_scheme("hybrid"), dt=0.1, t_end=0.1, nx=10)
     errors = BarSpaceTimeErrors(simulation)
     for t in (0.0, 0.3, 1.2, 2.5):  # kinks at x = 0.3; 0.2 and 0.8; 0.5
-        simulation.t = t
+        simulation.stepper.t = t
         simulation.u.interpolate(lambda x, t=t: bar_displacement(t, x[0])[None, :])
         errors(simulation)
     assert errors.l2_squared < 1e-30 and errors.h1_squared < 1e-16

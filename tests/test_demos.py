@@ -1,4 +1,5 @@
-"""The demos run as users run them: as scripts, with the flags and outputs of SPEC section 6."""
+"""The demos run as users run them: as scripts, with the flags and outputs of docs/method.md
+section 6."""
 
 import os
 import subprocess
@@ -41,9 +42,9 @@ def test_bar_demo_writes_history_and_figure(tmp_path):
 @pytest.mark.parametrize(
     "flags, named",
     [
-        (["--dt", "-1"], "dt=-1"),
-        (["--gamma0", "0"], "gamma0=0"),
-        (["--scheme", "theta", "--theta", "2"], "theta=2"),
+        (["--dt", "-1"], "--dt -1"),
+        (["--gamma0", "0"], "--gamma0 0"),
+        (["--scheme", "theta", "--theta", "2"], "--theta 2"),
         (["--scheme", "leapfrog"], "leapfrog"),
     ],
 )

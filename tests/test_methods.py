@@ -96,3 +96,50 @@ def test_mixed_method_in_2d_and_3d(dim):
     h = history(Simulation(problem, CrankNicolson(), dt=0.01, t_end=0.3))
     assert h["contact_force"].max() > 0
     assert np.abs(h["energy"] - h["energy"][0]).max() < 0.01 * h["energy"][0]
+
+
+@pytest.mark.mpi
+def test_mixed_method_restarts_through_the_driver(mpi_tmp_path):
+    """The mixed method runs through the same driver as Nitsche's: interrupted in contact
+    (SIGTERM), its checkpoint (with the multiplier) restarts it, and the history and the
+    XDMF series are those of the uninterrupted run."""
+    import os
+    import signal
+    import xml.etree.ElementTree as ElementTree
+
+    from nitsche_dolfinx import read_history
+    from nitsche_dolfinx.checkpoint import RunInterrupted
+
+    out, straight = (os.path.join(mpi_tmp_path, name) for name in ("interrupted", "straight"))
+    options = {"columns": BAR_COLUMNS, "output_every": 10}
+
+    def terminate(simulation):
+        if simulation.step_index == 60:  # t = 0.9: in contact
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(RunInterrupted) as caught:
+        bar_simulation(CrankNicolson(), method="mixed", t_end=1.5).run(
+            out=out, callback=terminate, **options
+        )
+    assert caught.value.checkpoint.step == 60
+    restarted = bar_simulation(CrankNicolson(), method="mixed", t_end=1.5)
+    history = restarted.run(out=out, restart=True, **options)
+    reference = bar_simulation(CrankNicolson(), method="mixed", t_end=1.5).run(
+        out=straight, **options
+    )
+    assert len(history) == len(reference) == 101
+    assert reference["sigma_contact"].min() < 0  # the run goes through contact
+    for name in BAR_COLUMNS:
+        scale = max(np.abs(reference[name]).max(), 1e-300)
+        assert np.abs(history[name] - reference[name]).max() <= 1e-12 * scale, name
+    written = read_history(os.path.join(out, "history.csv"))
+    assert np.array_equal(written["t"], reference["t"])
+    root = ElementTree.parse(os.path.join(out, "solution.xdmf")).getroot()
+    series = {
+        grid.get("Name"): [float(level.find("Time").get("Value")) for level in grid]
+        for grid in root.iter("Grid")
+        if grid.get("GridType") == "Collection"
+    }
+    assert set(series) == {"displacement", "velocity", "multiplier"}
+    for times in series.values():
+        assert np.allclose(times, 0.15 * np.arange(11))  # every 10 steps, none twice

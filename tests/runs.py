@@ -1,0 +1,124 @@
+"""Helpers of the tests that run the demos and the command as users do: in a subprocess,
+serially or under mpirun, and check what they print and write."""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+from mpi4py import MPI
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MESH = os.path.join(REPO, "meshes", "ring_2d.msh")
+MPIRUN = shutil.which("mpirun")
+#: The disk demo, short and without the compared runs.
+DISK = ["demos/disk_2d.py", "--no-compare", "--no-plot", "--mesh-size", "8"]
+
+
+def environment() -> dict:
+    env = {**os.environ, "PYTHONPATH": REPO + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    env.update(OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    env.update(MPLBACKEND="Agg")
+    return env
+
+
+def command(*args, ranks: int = 1) -> list[str]:
+    """``python args`` (a demo path relative to the repository, or ``-m ...``), under mpirun
+    when ``ranks > 1``."""
+    args = [os.path.join(REPO, a) if a.startswith("demos/") else a for a in args]
+    prefix = [MPIRUN, "-n", str(ranks)] if ranks > 1 else []
+    return [*prefix, sys.executable, *args]
+
+
+def run(*args, ranks: int = 1, timeout: float = 300) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        command(*args, ranks=ranks),
+        capture_output=True,
+        text=True,
+        env=environment(),
+        timeout=timeout,
+    )
+
+
+def assert_one_line_error(result, named: str, status: int = 2) -> None:
+    """Exit status, the value named on stderr, and no traceback anywhere."""
+    assert result.returncode == status, (result.returncode, result.stderr)
+    assert named in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr + result.stdout
+
+
+def assert_same_history(a: dict, b: dict, tolerance: float = 1e-12) -> float:
+    """The largest difference of two histories, relative to each column's largest value."""
+    assert list(a) == list(b)
+    assert len(a["t"]) == len(b["t"])
+    worst = 0.0
+    for name in a:
+        if name == "step_seconds":
+            continue
+        scale = max(np.abs(a[name]).max(), 1e-300)
+        worst = max(worst, np.abs(a[name] - b[name]).max() / scale)
+    assert worst <= tolerance, worst
+    return worst
+
+
+def assert_xdmf_readable(path: str, last_time: float) -> list[float]:
+    """The XDMF file reopens (mesh read back) and its time levels are increasing, none after
+    ``last_time``; with h5py, every dataset it names is finite."""
+    from dolfinx.io import XDMFFile
+
+    with XDMFFile(MPI.COMM_SELF, path, "r") as xdmf:
+        mesh = xdmf.read_mesh(name="mesh")
+    assert mesh.topology.index_map(mesh.topology.dim).size_global > 0
+    import xml.etree.ElementTree as ElementTree
+
+    root = ElementTree.parse(path).getroot()
+    times = {}
+    for collection in root.iter("Grid"):
+        if collection.get("GridType") == "Collection":
+            values = [float(grid.find("Time").get("Value")) for grid in collection]
+            assert values == sorted(set(values)), values  # no time level twice
+            assert values[-1] <= last_time + 1e-9
+            times[collection.get("Name")] = values
+    assert set(times) == {"displacement", "velocity", "von_mises"}
+    try:
+        import h5py
+    except ImportError:
+        return times["displacement"]
+    with h5py.File(os.path.splitext(path)[0] + ".h5", "r") as h5:
+        for item in root.iter("DataItem"):
+            name = item.text.strip().split(":", 1)[1]
+            assert np.all(np.isfinite(h5[name][()])), name
+    return times["displacement"]
+
+
+def ring_config(folder: str, replace: dict | None = None, t_end: float = 0.05) -> str:
+    """The shipped ring configuration, shortened, next to a copy of its mesh."""
+    text = open(os.path.join(REPO, "demos", "ring_2d.toml")).read()
+    text = text.replace('"../meshes/ring_2d.msh"', '"ring_2d.msh"')
+    text = text.replace("t_end = 1.0", f"t_end = {t_end}")
+    for old, new in (replace or {}).items():
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    shutil.copy(MESH, os.path.join(folder, "ring_2d.msh"))
+    path = os.path.join(folder, "config.toml")
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def child_pids(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (the ranks that mpirun started)."""
+    children = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            children.append(int(entry))
+    return sorted(children)

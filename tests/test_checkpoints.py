@@ -1,0 +1,287 @@
+"""Runs that are interrupted and continued, and lose nothing.
+
+- SIGINT stops a run (serial, or under mpirun with the signal sent to one rank only)
+  after a complete step, and ``--restart`` reproduces the uninterrupted history;
+- checkpoints reload on another partition or number of ranks, refuse another run,
+  survive a killed write, and the command line and the bar demo continue from them.
+"""
+
+import gc
+import json
+import os
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from runs import (
+    DISK,
+    MPIRUN,
+    assert_same_history,
+    assert_xdmf_readable,
+    child_pids,
+    command,
+    environment,
+    ring_config,
+    run,
+)
+
+from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, read_history
+from nitsche_dolfinx.cases import impact_problem
+from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE, CheckpointError, RunInterrupted
+
+# -- 3./4. SIGINT and restart -----------------------------------------------------------------
+
+
+def interrupt_disk(out: str, ranks: int, after_step: int = 20) -> tuple[subprocess.Popen, str]:
+    """Start the disk demo (400 steps on the h = 4 mesh), send SIGINT once it has printed step
+    ``after_step``: to the process, or under mpirun to the last rank only (the ranks agree
+    on stopping). Returns the finished process and its stderr."""
+    args = [*DISK[:-1], "4", "--t-end", "40", "--output-every", "10", "--out", out]
+    process = subprocess.Popen(
+        command(*args, ranks=ranks),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment(),
+    )
+    try:
+        for line in process.stdout:
+            if line.startswith("step") and int(line.split()[1]) >= after_step:
+                break
+        else:
+            pytest.fail("the demo ended before the signal")
+        target = process.pid
+        if ranks > 1:
+            deadline = time.monotonic() + 30
+            while len(child_pids(process.pid)) < ranks and time.monotonic() < deadline:
+                time.sleep(0.05)
+            target = child_pids(process.pid)[-1]
+        os.kill(target, signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return process, stderr
+
+
+def check_interrupted_then_restart(tmp_path, ranks: int) -> float:
+    out = str(tmp_path / "interrupted")
+    process, stderr = interrupt_disk(out, ranks)
+    assert "interrupted by SIGINT after step" in stderr, stderr
+    assert "continue with --restart" in stderr and "Traceback" not in stderr
+    if ranks == 1:
+        assert process.returncode == 130
+    else:
+        assert process.returncode != 0  # mpirun reports a failed rank's status its own way
+    # the outputs are readable, up to the step the run stopped after, and that step is saved
+    history = read_history(os.path.join(out, "history.csv"))
+    steps = len(history["t"]) - 1
+    assert 20 <= steps < 400 and history["t"][-1] == pytest.approx(steps * 0.1)
+    assert stderr.count("interrupted by SIGINT") == 1
+    assert f"after step {steps} (t = {steps * 0.1:.6g})" in stderr
+    assert_xdmf_readable(os.path.join(out, "solution.xdmf"), last_time=steps * 0.1)
+    with open(os.path.join(out, "checkpoint", CHECKPOINT_FILE)) as f:
+        saved = json.load(f)
+    assert saved["step"] == steps and saved["ranks"] == ranks
+
+    args = [*DISK[:-1], "4", "--t-end", "40", "--output-every", "10", "--quiet"]
+    restarted = run(*args, "--restart", "--out", out, ranks=ranks)
+    assert restarted.returncode == 0, restarted.stderr
+    reference = run(*args, "--out", str(tmp_path / "reference"), ranks=ranks)
+    assert reference.returncode == 0, reference.stderr
+    difference = assert_same_history(
+        read_history(str(tmp_path / "reference" / "history.csv")),
+        read_history(os.path.join(out, "history.csv")),
+    )
+    times = assert_xdmf_readable(os.path.join(out, "solution.xdmf"), last_time=40.0)
+    assert times == pytest.approx(np.arange(0.0, 40.05, 1.0))
+    return difference
+
+
+def test_sigint_stops_cleanly_and_restart_reproduces_the_run(tmp_path):
+    check_interrupted_then_restart(tmp_path, ranks=1)
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(MPIRUN is None, reason="needs mpirun")
+@pytest.mark.skipif(MPI.COMM_WORLD.size > 1, reason="starts mpirun itself: run it serially")
+def test_sigint_to_one_rank_under_mpirun_stops_all_and_restart_reproduces(tmp_path):
+    check_interrupted_then_restart(tmp_path, ranks=2)
+
+
+# -- the library: checkpoints in process -------------------------------------------------------
+
+
+def disk(t_end=12.0, scheme=None, dt=0.1, comm=MPI.COMM_WORLD, mesh_size=8.0):
+    problem = impact_problem(dim=2, mesh_size=mesh_size, comm=comm)
+    return Simulation(problem, scheme or HybridScheme(), dt=dt, t_end=t_end)
+
+
+def columns(records, names):
+    """The columns ``names`` of ``run``'s records, as ``read_history`` gives them."""
+    return {name: np.array([r[name] for r in records], dtype=float) for name in names}
+
+
+@pytest.mark.mpi
+def test_restart_after_a_hard_kill_continues_from_the_last_periodic_checkpoint(mpi_tmp_path):
+    """A run dies (here: an exception in a callback, no clean stop) at step 87: the last
+    checkpoint is at step 80, the files go further. The restart cuts the history at step 80,
+    writes the fields from there to a new XDMF file and matches an uninterrupted run."""
+    out = os.path.join(mpi_tmp_path, "killed")
+
+    def die(simulation):
+        if simulation.step_index == 87:
+            raise RuntimeError("killed")
+
+    with pytest.raises(RuntimeError, match="killed"):
+        disk().run(out=out, output_every=5, checkpoint_every=20, callback=die)
+    gc.collect()  # the failed run's objects, on all ranks at once: destroying them is collective
+    comm = MPI.COMM_WORLD
+    comm.barrier()
+    assert len(read_history(os.path.join(out, "history.csv"))["t"]) == 88
+    records = disk().run(out=out, output_every=5, checkpoint_every=20, restart=True)
+    reference = os.path.join(mpi_tmp_path, "reference")
+    disk().run(out=reference, output_every=5)
+    comm.barrier()
+    history = read_history(os.path.join(out, "history.csv"))
+    assert len(records) == len(history["t"]) == 121
+    assert_same_history(read_history(os.path.join(reference, "history.csv")), history)
+    assert_same_history(columns(records, history), history)  # run returns the whole history
+    if comm.rank == 0:
+        assert_xdmf_readable(os.path.join(out, "solution.xdmf"), last_time=8.5)
+        later = assert_xdmf_readable(os.path.join(out, "solution-from-step80.xdmf"), 12.0)
+        assert later == pytest.approx(np.arange(8.5, 12.01, 0.5))
+        names = [f"state-00000120.rank{rank:04d}.npz" for rank in range(comm.size)]
+        assert sorted(os.listdir(os.path.join(out, "checkpoint"))) == sorted(
+            [CHECKPOINT_FILE, *names]
+        )
+
+
+@pytest.mark.mpi
+def test_checkpoint_refuses_another_scheme_time_step_or_mesh(mpi_tmp_path):
+    folder = os.path.join(mpi_tmp_path, "checkpoint")
+    simulation = disk(t_end=0.5)
+    simulation.run()
+    simulation.save_checkpoint(folder)
+    with pytest.raises(CheckpointError, match=r"its scheme is 'hybrid', this run's is 'cn'"):
+        disk(scheme=CrankNicolson()).load_checkpoint(folder)
+    with pytest.raises(CheckpointError, match=r"its dt is 0.1, this run's is 0.05"):
+        disk(dt=0.05).load_checkpoint(folder)
+    with pytest.raises(CheckpointError, match="its dofs is"):
+        disk(mesh_size=6.0).load_checkpoint(folder)
+    with pytest.raises(CheckpointError, match=r"past t_end"):
+        disk(t_end=0.3).load_checkpoint(folder)
+    restored = disk()
+    saved = restored.load_checkpoint(folder)
+    assert (saved.step, saved.t) == (5, 0.5)
+    assert np.array_equal(restored.u.x.array, simulation.u.x.array)
+
+
+@pytest.mark.mpi
+@pytest.mark.skipif(MPI.COMM_WORLD.size == 1, reason="needs two ranks")
+def test_checkpoint_reloads_on_another_number_of_ranks(mpi_tmp_path):
+    """Values are matched to dofs by the coordinates of their nodes: a checkpoint of a serial
+    run reloads on all ranks, with the same energies."""
+    comm = MPI.COMM_WORLD
+    folder = os.path.join(mpi_tmp_path, "serial-checkpoint")
+    expected = None
+    if comm.rank == 0:
+        serial = disk(t_end=11.0, comm=MPI.COMM_SELF)  # in contact at t = 11
+        serial.run()
+        serial.save_checkpoint(folder)
+        expected = serial.state()
+        serial.solver.destroy()
+    expected = comm.bcast(expected, root=0)
+    parallel = disk(t_end=12.0)
+    saved = parallel.load_checkpoint(folder)
+    assert saved.step == 110
+    state = parallel.state()
+    for name in ("energy", "energy_theta", "kinetic", "contact_force", "penetration_max"):
+        assert state[name] == pytest.approx(expected[name], rel=1e-12, abs=1e-12), name
+
+
+def test_corrupt_checkpoint_metadata_is_named(tmp_path):
+    folder = str(tmp_path / "checkpoint")
+    simulation = disk(t_end=0.2)
+    simulation.save_checkpoint(folder)
+    with open(os.path.join(folder, CHECKPOINT_FILE), "w") as f:
+        f.write('{"format": "nitsche-dolfinx checkpoint", "vers')  # cut short
+    with pytest.raises(CheckpointError, match="checkpoint.json' cannot be read"):
+        disk().load_checkpoint(folder)
+
+
+def test_interrupted_write_leaves_the_previous_checkpoint(tmp_path):
+    """A checkpoint is complete once checkpoint.json names it: leftovers of a write that was
+    killed (temporary files, a state file not yet named) do not matter."""
+    folder = str(tmp_path / "checkpoint")
+    simulation = disk(t_end=0.5)
+    simulation.run()
+    simulation.save_checkpoint(folder)
+    (tmp_path / "checkpoint" / "state-00000009.rank0000.npz.tmp").write_bytes(b"half")
+    (tmp_path / "checkpoint" / "checkpoint.json.tmp").write_text("{")
+    assert disk().load_checkpoint(folder).step == 5
+
+
+def test_signal_handlers_are_restored_and_signal_stops_after_the_step(tmp_path):
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+
+    def terminate(simulation):
+        if simulation.step_index == 3:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(RunInterrupted, match=r"SIGTERM after step 3 \(t = 0.3\)") as caught:
+        disk().run(out=str(tmp_path / "out"), callback=terminate)
+    assert caught.value.exit_status == 143
+    assert caught.value.checkpoint.step == 3
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+    assert len(read_history(str(tmp_path / "out" / "history.csv"))["t"]) == 4
+
+
+def test_history_with_other_columns_is_not_continued(tmp_path):
+    out = str(tmp_path / "out")
+    disk(t_end=0.3).run(out=out, checkpoint_every=1)
+    with pytest.raises(CheckpointError, match="history columns"):
+        disk().run(out=out, columns=("t", "energy"), restart=True)
+
+
+# -- the command line and the bar demo continue too ---------------------------------------------
+
+
+def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
+    """Run the ring to t = 0.05 with checkpoints, then continue it to t = 0.1 with --restart:
+    the history is that of a run straight to t = 0.1, without a duplicated row."""
+    short = ring_config(str(tmp_path), t_end=0.05)
+    out = str(tmp_path / "out")
+    first = run(
+        "-m", "nitsche_dolfinx", "run", short, "--out", out, "--quiet", "--checkpoint-every", "4"
+    )
+    assert first.returncode == 0, first.stderr
+    long = ring_config(str(tmp_path), t_end=0.1)
+    second = run("-m", "nitsche_dolfinx", "run", long, "--out", out, "--quiet", "--restart")
+    assert second.returncode == 0, second.stderr
+    straight = run(
+        "-m", "nitsche_dolfinx", "run", long, "--out", str(tmp_path / "straight"), "--quiet"
+    )
+    assert straight.returncode == 0, straight.stderr
+    history = read_history(os.path.join(out, "history.csv"))
+    assert len(history["t"]) == 21 and np.all(np.diff(history["t"]) > 0)
+    assert_same_history(read_history(str(tmp_path / "straight" / "history.csv")), history)
+
+
+def test_bar_demo_restarts(tmp_path):
+    bar = ["demos/bar_1d.py", "--no-plot", "--no-compare", "--nx", "20", "--dt", "0.075"]
+    out = str(tmp_path / "bar")
+    first = run(*bar, "--t-end", "1.5", "--checkpoint-every", "7", "--out", out)
+    assert first.returncode == 0, first.stderr
+    second = run(*bar, "--t-end", "3", "--restart", "--out", out)
+    assert second.returncode == 0, second.stderr
+    straight = run(*bar, "--t-end", "3", "--out", str(tmp_path / "straight"))
+    assert straight.returncode == 0, straight.stderr
+    assert_same_history(
+        read_history(str(tmp_path / "straight" / "history.csv")),
+        read_history(os.path.join(out, "history.csv")),
+    )
