@@ -231,13 +231,17 @@ class ContactProblem:
             self._mass_diagonal = self._diagonal_mass(self.V)
         return self._mass_diagonal
 
-    def massless_dofs(self) -> np.ndarray:
-        """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass)."""
+    def massless_dofs(self, nodes: bool = False) -> np.ndarray:
+        """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass);
+        with ``nodes``, of their nodes (the blocks of the dof array)."""
         diagonal = self.mass_diagonal()
         if diagonal is None:
             return np.zeros(0, dtype=np.int32)
         with diagonal.localForm() as local:
-            return np.flatnonzero(local.array == 0.0).astype(np.int32)
+            mass = (
+                local.array.reshape(-1, self.V.dofmap.index_map_bs)[:, 0] if nodes else local.array
+            )
+            return np.flatnonzero(mass == 0.0).astype(np.int32)
 
     def _diagonal_mass(self, V):
         if self.mass == "lumped":

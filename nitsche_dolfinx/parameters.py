@@ -176,5 +176,5 @@ class OutputParameters:
                 isinstance(value, (int, np.integer)) and value >= 0,
                 name,
                 value,
-                "must be an integer >= 0 (0: never)",
+                "must be an integer >= 0",
             )

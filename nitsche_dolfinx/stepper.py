@@ -100,12 +100,8 @@ def initial_acceleration(
     zero = fem.Function(V)
     bcs = [fem.dirichletbc(zero, dofs) for dofs in bc_dofs]
     diagonal = problem.mass_diagonal()
-    if diagonal is not None:
-        # massless nodes (redistributed mass) have no acceleration of their own
-        with diagonal.localForm() as local:
-            bs = V.dofmap.index_map_bs
-            massless = np.flatnonzero(local.array.reshape(-1, bs)[:, 0] == 0.0)
-        bcs.append(fem.dirichletbc(zero, massless.astype(np.int32)))
+    if diagonal is not None:  # massless nodes (redistributed mass): no acceleration of their own
+        bcs.append(fem.dirichletbc(zero, problem.massless_dofs(nodes=True)))
     a.x.array[:] = 0.0
     solver = SNESSolver(F0, a, bcs, petsc_options=petsc_options, mass_diagonal=diagonal)
     solver.solve()
