@@ -42,8 +42,8 @@ HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds")
 #: The energy balance of a step: D^n, the work of the friction term on the step's
 #: increment, and E_Theta^{n+1} - E_Theta^n + D^n (both 0 at t = 0).
 BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
-#: Columns of ``history.csv`` for the friction demos.
-FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS[:-2], *BALANCE_COLUMNS, *HISTORY_COLUMNS[-2:])
+#: Columns of ``history.csv`` for the friction demos: the balance after the listed ones.
+FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
 
 
 class History:

@@ -31,6 +31,7 @@ from . import compat
 from .checkpoint import node_coordinates
 from .contact import positive_part
 from .diagnostics import Penetration, assemble_global
+from .material import von_mises
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
@@ -271,11 +272,13 @@ class MixedStepper:
         return self._lambda
 
     def output_fields(self) -> dict:
-        """Displacement, velocity and the multiplier lambda (zero off Gamma_C)."""
+        """Displacement, velocity, von Mises stress and the multiplier lambda (zero off
+        Gamma_C)."""
         shape = (self.problem.gdim,)
         return {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
+            "von_mises": (von_mises(self.u, self.problem.material), ()),
             "multiplier": (self.multiplier, ()),
         }
 

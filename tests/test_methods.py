@@ -140,6 +140,6 @@ def test_mixed_method_restarts_through_the_driver(mpi_tmp_path):
         for grid in root.iter("Grid")
         if grid.get("GridType") == "Collection"
     }
-    assert set(series) == {"displacement", "velocity", "multiplier"}
+    assert set(series) == {"displacement", "velocity", "von_mises", "multiplier"}
     for times in series.values():
         assert np.allclose(times, 0.15 * np.arange(11))  # every 10 steps, none twice
