@@ -2,7 +2,7 @@
 
 What it measures
 ----------------
-The 1D bar with multiple impacts of the talk (SPEC section 5: Omega = (0, 1),
+The 1D bar with multiple impacts of the talk (docs/method.md section 5: Omega = (0, 1),
 E = rho = 1, clamped at x = 1, wall at x = 0, u0 = 1/2 - x/2, v0 = 0; 100 P1
 elements, tau = 0.015, T = 6, i.e. two periods of the exact solution), marched
 with the hybrid scheme (or another one, ``--scheme``) for every variant Theta in

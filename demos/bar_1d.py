@@ -120,17 +120,16 @@ from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
     add_run_arguments,
-    check_method_arguments,
     check_output_folder,
+    method_parameters,
     one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
-from nitsche_dolfinx.cases import BAR_METHODS
-from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE
+from nitsche_dolfinx.checkpoint import has_checkpoint
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
-from nitsche_dolfinx.plotting import latex_number
-from nitsche_dolfinx.problem import MASS_MATRICES
+from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES
+from nitsche_dolfinx.plotting import latex_number, pyplot, save
 
 # Names of the schemes in the figure and the summary
 SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
@@ -145,14 +144,14 @@ SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
 
 
 def make_parser() -> argparse.ArgumentParser:
-    """The command-line parser of the demo (flags of SPEC section 6)."""
+    """The command-line parser of the demo (flags of docs/method.md section 6)."""
     parser = argparse.ArgumentParser(
         description="1D bouncing bar: dynamic contact by Nitsche's method.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     parser.add_argument(
         "--method",
-        choices=BAR_METHODS,
+        choices=CONTACT_METHODS,
         default="nitsche",
         help="contact method (mixed: Lagrange multiplier, with --scheme cn)",
     )
@@ -185,7 +184,7 @@ def make_parser() -> argparse.ArgumentParser:
 
 
 def bar_simulation(args: argparse.Namespace, scheme_name: str, method: str):
-    """The bar of SPEC section 5 with the parameters of ``args``.
+    """The bar of docs/method.md section 5 with the parameters of ``args``.
 
     ``nitsche_dolfinx.cases.bar_problem`` is a dozen lines of the public API:
     ``bar_mesh``, a ``ContactProblem`` with ``Material(E=1, nu=0, rho=1)``,
@@ -225,34 +224,26 @@ def run(args: argparse.Namespace, scheme_name: str, out: str, method: str) -> di
     """Run the bar with the scheme ``scheme_name``, writing ``out/history.csv``.
 
     Returns:
-        The history as a dict of column arrays, with the run's ``label`` and ``out``.
+        The run's ``label``, ``out`` and ``history`` (a :class:`History`).
     """
     sim = bar_simulation(args, scheme_name, method)
-    if method == "mixed":  # its own time loop, without checkpoints
-        records = sim.run(out=out, columns=COLUMNS)
-    else:
-        restart = args.restart and (
-            out == args.out or os.path.exists(os.path.join(out, "checkpoint", CHECKPOINT_FILE))
-        )
-        records = sim.run(
-            out=out, columns=COLUMNS, checkpoint_every=args.checkpoint_every, restart=restart
-        )
-    history = {name: np.array([record[name] for record in records]) for name in COLUMNS}
+    restart = args.restart and (out == args.out or has_checkpoint(os.path.join(out, "checkpoint")))
+    history = sim.run(
+        out=out, columns=COLUMNS, checkpoint_every=args.checkpoint_every, restart=restart
+    )
     label = SCHEME_LABELS.get(scheme_name, sim.scheme.describe())
     mass = "" if args.mass == "consistent" else f", {args.mass} mass"
-    return {"label": f"{method.capitalize()} + {label}{mass}", "out": out, **history}
+    return {"label": f"{method.capitalize()} + {label}{mass}", "out": out, "history": history}
 
 
-def measure(result: dict, dt: float) -> dict:
+def measure(history, dt: float) -> dict:
     """Error, energy change, E_Theta increase and Newton iterations of one run."""
-    u_exact, _, _ = bar_contact_values(result["t"])
-    energy = result["energy"]
+    u_exact, _, _ = bar_contact_values(history["t"])
     return {
-        "error_u": np.sqrt(dt * np.sum((result["u_contact"] - u_exact) ** 2)),
-        "energy_change": (energy[-1] - energy[0]) / energy[0],
-        "energy_theta_increase": np.max(np.diff(result["energy_theta"])),
-        # the first row is t = 0, where no Newton solve happens
-        "newton_iterations": np.mean(result["newton_iterations"][1:]),
+        "error_u": np.sqrt(dt * np.sum((history["u_contact"] - u_exact) ** 2)),
+        "energy_change": history.energy_drift(),
+        "energy_theta_increase": np.max(np.diff(history["energy_theta"])),
+        "newton_iterations": history.mean_newton_iterations(),
     }
 
 
@@ -263,12 +254,14 @@ def print_summary(results: list[dict], dt: float) -> None:
         f"{'max step dE_Theta':>18s} {'Newton/step':>12s}"
     )
     for result in results:
-        m = measure(result, dt)
+        m = measure(result["history"], dt)
         print(
             f"{result['label']:36s} {m['error_u']:16.4e} {m['energy_change']:+14.3%} "
             f"{m['energy_theta_increase']:18.2e} {m['newton_iterations']:12.3f}"
         )
-    print("E(T) = " + ", ".join(f"{r['energy'][-1]:.5f} ({r['label']})" for r in results))
+    print(
+        "E(T) = " + ", ".join(f"{r['history'][-1]['energy']:.5f} ({r['label']})" for r in results)
+    )
 
 
 # ### The figure
@@ -280,14 +273,9 @@ def print_summary(results: list[dict], dt: float) -> None:
 
 def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
     """Draw u(t, 0), v(t, 0), lambda_h(t, 0) and the energy of every run into ``path``."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no figure")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")  # no display needed
-    import matplotlib.pyplot as plt
-
     # a fine time grid, so that the kinks of the exact solution stay sharp
     t_exact = np.linspace(0.0, args.t_end, 4001)
     exact = dict(zip(("u_contact", "v_contact", "sigma_contact"), bar_contact_values(t_exact)))
@@ -308,11 +296,12 @@ def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
         else:
             ax.plot(t_exact, exact[name], **exact_style)
         for result, style in zip(results, styles):
-            ax.plot(result["t"], result[name], label=result["label"], **style)
+            history = result["history"]
+            ax.plot(history["t"], history[name], label=result["label"], **style)
         ax.set_title(title)
         ax.grid(alpha=0.3)
     # E_Theta of the main run: the hybrid scheme guarantees that it never increases
-    main = results[0]
+    main = results[0]["history"]
     axes[1, 1].plot(
         main["t"],
         main["energy_theta"],
@@ -320,7 +309,7 @@ def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
         lw=1.1,
         ls="--",
         zorder=2,
-        label=rf"$E_\Theta^h$, {main['label']}",
+        label=rf"$E_\Theta^h$, {results[0]['label']}",
     )
     for ax in axes[1]:
         ax.set_xlabel("time $t$")
@@ -330,9 +319,7 @@ def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
         rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, "
         rf"$h = {latex_number(1 / args.nx)}$, $\tau = {latex_number(args.dt)}$"
     )
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    print(f"figure: {path}")
+    save(fig, path, dpi=150)
 
 
 # ### Main
@@ -348,14 +335,9 @@ def plot(results: list[dict], args: argparse.Namespace, path: str) -> None:
 
 def check_arguments(args: argparse.Namespace) -> None:
     """Every flag in range and the output folder writable, before any computing."""
-    check_method_arguments(args)
+    method_parameters(args)
     if args.nx < 1:
         raise ValueError(f"the bar needs at least one cell, got --nx {args.nx}")
-    if args.method == "mixed" and (args.checkpoint_every or args.restart):
-        raise ValueError(
-            "--method mixed has no checkpoints: --checkpoint-every and --restart "
-            "need --method nitsche or penalty"
-        )
     check_output_folder(args.out)
 
 

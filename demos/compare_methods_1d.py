@@ -119,7 +119,7 @@ from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import finite_float, one_line_errors
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
-from nitsche_dolfinx.plotting import latex_number
+from nitsche_dolfinx.plotting import latex_number, pyplot, save
 from nitsche_dolfinx.schemes import make_scheme
 
 
@@ -199,8 +199,8 @@ def make_parser() -> argparse.ArgumentParser:
 # (and compiling its forms when they are not in the cache yet).
 
 
-def run(spec: Run, args: argparse.Namespace) -> dict:
-    """Run ``spec``, writing ``OUT/<name>/history.csv``; the history as column arrays."""
+def run(spec: Run, args: argparse.Namespace):
+    """Run ``spec``, writing ``OUT/<name>/history.csv``; its History and wall time."""
     start = time.perf_counter()
     simulation = cases.bar_simulation(
         make_scheme(spec.scheme),
@@ -212,34 +212,31 @@ def run(spec: Run, args: argparse.Namespace) -> dict:
         gamma0=args.gamma0,
         nitsche_theta=1.0,
     )
-    records = simulation.run(out=os.path.join(args.out, spec.name), columns=BAR_COLUMNS)
-    history = {name: np.array([record[name] for record in records]) for name in BAR_COLUMNS}
-    history["wall_seconds"] = time.perf_counter() - start
-    return history
+    history = simulation.run(out=os.path.join(args.out, spec.name), columns=BAR_COLUMNS)
+    return history, time.perf_counter() - start
 
 
-def contact_velocity(spec: Run, history: dict) -> tuple[np.ndarray, np.ndarray]:
+def contact_velocity(spec: Run, history) -> tuple[np.ndarray, np.ndarray]:
     """Times and values of the velocity at x = 0 (for a massless contact node the library
     records the mean velocity of the step that ends there)."""
     return history["t"], history["v_contact"]
 
 
-def measure(spec: Run, history: dict, dt: float) -> dict:
+def measure(spec: Run, history, seconds: float, dt: float) -> dict:
     """The numbers of the summary table for one run."""
     t = history["t"]
     u_exact, _, sigma_exact = bar_contact_values(t)
     t_v, v = contact_velocity(spec, history)
     _, v_exact, _ = bar_contact_values(t_v)
-    energy = history["energy"]
     return {
-        "energy_drift": energy[-1] / energy[0] - 1.0,
-        "energy_error_max": np.max(np.abs(energy - BAR_ENERGY)),
+        "energy_drift": history.energy_drift(),
+        "energy_error_max": np.max(np.abs(history["energy"] - BAR_ENERGY)),
         "error_u_contact": np.sqrt(dt * np.sum((history["u_contact"] - u_exact) ** 2)),
         "error_v_contact": np.sqrt(dt * np.sum((v - v_exact) ** 2)),
         "error_sigma_contact": np.sqrt(dt * np.sum((history["sigma_contact"] - sigma_exact) ** 2)),
         "penetration_max": max(-np.min(history["u_contact"]), 0.0),
-        "newton_iterations": np.mean(history["newton_iterations"][1:]),  # no solve at t = 0
-        "wall_seconds": history["wall_seconds"],
+        "newton_iterations": history.mean_newton_iterations(),
+        "wall_seconds": seconds,
     }
 
 
@@ -284,15 +281,11 @@ def write_summary(specs: list[Run], rows: list[dict], out: str) -> str:
 # matplotlib is optional.
 
 
-def plot(specs: list[Run], histories: list[dict], args: argparse.Namespace, path: str) -> None:
+def plot(specs: list[Run], histories: list, args: argparse.Namespace, path: str) -> None:
     """Draw u(t, 0), v(t, 0), the contact pressure and the energy of every run into ``path``."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no figure")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")  # no display needed
-    import matplotlib.pyplot as plt
 
     t_exact = np.linspace(0.0, args.t_end, 4001)  # fine, so that the kinks stay sharp
     exact = dict(zip(("u_contact", "v_contact", "sigma_contact"), bar_contact_values(t_exact)))
@@ -348,9 +341,7 @@ def plot(specs: list[Run], histories: list[dict], args: argparse.Namespace, path
         rf"1D bouncing bar: Nitsche $\Theta = 1$, $\gamma_0 = {latex_number(args.gamma0)}$, "
         rf"P1, $h = {latex_number(1 / args.nx)}$, $\tau = {latex_number(args.dt)}$"
     )
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    print(f"figure: {path}")
+    save(fig, path, dpi=150)
 
 
 # ### Main
@@ -362,10 +353,13 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     specs = list(RUNS) + ([PENALTY] if args.penalty else [])
     with one_line_errors(parser):
-        histories = [run(spec, args) for spec in specs]
+        runs = [run(spec, args) for spec in specs]
     if MPI.COMM_WORLD.rank != 0:
         return
-    rows = [measure(spec, history, args.dt) for spec, history in zip(specs, histories)]
+    rows = [
+        measure(spec, history, seconds, args.dt) for spec, (history, seconds) in zip(specs, runs)
+    ]
+    histories = [history for history, _ in runs]
     print(write_summary(specs, rows, args.out))
     print(
         f"summary: {os.path.join(args.out, 'summary.csv')}, {os.path.join(args.out, 'summary.md')}"

@@ -141,9 +141,8 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import BAR_CONTACT, BoundaryAverage, cases
 from nitsche_dolfinx.arguments import finite_float, one_line_errors
-from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.exact import BAR_ENERGY, BarSpaceTimeErrors, bar_contact_values
-from nitsche_dolfinx.plotting import latex_number
+from nitsche_dolfinx.plotting import latex_number, pyplot, save
 from nitsche_dolfinx.schemes import make_scheme
 
 
@@ -234,10 +233,7 @@ def run_level(
     )
     errors = BarSpaceTimeErrors(simulation)
     errors(simulation)  # t = 0
-    records = simulation.run(callback=errors)
-    history = {
-        name: np.array([r[name] for r in records]) for name in (*BAR_COLUMNS, "stress_contact")
-    }
+    history = simulation.run(callback=errors)
     _, _, sigma = bar_contact_values(history["t"])
     return {
         "method": method.name,
@@ -249,7 +245,7 @@ def run_level(
         "error_pressure": np.sqrt(dt * np.sum((history["sigma_contact"] - sigma) ** 2)),
         "error_stress": np.sqrt(dt * np.sum((history["stress_contact"] - sigma) ** 2)),
         "error_energy": np.max(np.abs(history["energy"] - BAR_ENERGY)),
-        "newton_iterations": np.mean(history["newton_iterations"][1:]),
+        "newton_iterations": history.mean_newton_iterations(),
         "wall_seconds": time.perf_counter() - start,
     }
 
@@ -368,14 +364,9 @@ def slope_triangle(ax, x0: float, y0: float, slope: float, label: str, width: fl
 
 def plot(results: dict[str, list[dict]], args: argparse.Namespace, path: str) -> None:
     """Draw the error curves of every method into ``path``."""
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no figure")
+    plt = pyplot()
+    if plt is None:
         return
-    matplotlib.use("Agg")  # no display needed
-    import matplotlib.pyplot as plt
-
     panels = (
         (("error_l2_l2",), r"$u$ in $\ell^2(\tau; L^2(0, 1))$"),
         (("error_l2_h1",), r"$u$ in $\ell^2(\tau; H^1(0, 1))$ (seminorm)"),
@@ -420,9 +411,7 @@ def plot(results: dict[str, list[dict]], args: argparse.Namespace, path: str) ->
         rf"$(0, {args.t_end:g})$, Nitsche $\Theta = 1$, $\gamma_0 = {latex_number(args.gamma0)}$, "
         rf"P{args.degree}"
     )
-    fig.savefig(path, dpi=150)
-    plt.close(fig)
-    print(f"figure: {path}")
+    save(fig, path, dpi=150)
 
 
 # ### Main

@@ -92,33 +92,15 @@
 #
 # ## Implementation
 #
-# The test case is `nitsche_dolfinx.cases.impact_problem(dim=2, ...)`: the
-# gmsh disk (`nitsche_dolfinx.shapes.disk_mesh`, second-order geometry), a
+# The test case is `nitsche_dolfinx.cases.impact_problem(dim=2, ...)`: the gmsh
+# disk (`nitsche_dolfinx.shapes.disk_mesh`, second-order geometry), a
 # `ContactProblem` with `Material.from_lame(20, 20, rho=1)` (plane strain), a
 # `PlaneObstacle` through the origin with normal $(0, 1)$ on the lower half
-# circle, the body force and the initial displacement. What the ball and the
-# disk demos share (flags, linear solvers, summary, figures) is in
-# `demos/_impact.py`.
+# circle, the body force and the initial displacement. The flags, the runs,
+# the summary and the figures are those of the ball: `demos/ball_3d.py` walks
+# through the code, and runs here with `dim=2`.
 
-# +
-from _impact import main
-
-# -
-
-# ### Main
-#
-# The main run writes `OUT/history.csv` and `OUT/solution.xdmf`, and its
-# callback keeps the fields at $t = 18$ for the picture. Unless `--no-compare`,
-# the other schemes of the energy figure run with the same parameters into
-# `OUT/<scheme>/history.csv`. A bad parameter, a Newton failure or a PETSc
-# error stops the demo with a one-line message. A Newton failure, SIGINT or
-# SIGTERM stops it after the last complete step, with the history and the
-# fields readable and that state saved in `OUT/checkpoint` (also every K steps
-# with `--checkpoint-every K`); `--restart` continues from it.
+from ball_3d import main
 
 if __name__ == "__main__":
-    main(
-        2,
-        "disk",
-        "Impact of an elastic disk on a rigid plane (2D, plane strain), Nitsche's method.",
-    )
+    main(dim=2, body="disk")

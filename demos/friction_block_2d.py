@@ -18,8 +18,8 @@
 # decelerates at $g(\mu_f - s)$; started at rest it sticks when $s \le \mu_f$ and
 # slides with the acceleration $g(s - \mu_f)$ otherwise.
 #
-# The contact and friction conditions are written with Nitsche's method (SPEC
-# section 2): with $P_\gamma(u) = u_n - g - \gamma_h \sigma_n(u)$ and the
+# The contact and friction conditions are written with Nitsche's method
+# (docs/method.md section 2): with $P_\gamma(u) = u_n - g - \gamma_h \sigma_n(u)$ and the
 # tangential velocity $\dot u_t$ of the time scheme,
 #
 # $$
@@ -45,7 +45,7 @@
 # under `mpirun -n 2`). The default run goes on to t = 7, past the stop at t = 5:
 # the base then sticks while the block rings elastically. The stick band is 10^6
 # times thinner than one step's change of velocity; the guarded Newton of
-# `Simulation` (see "Coulomb friction" in the README) is what gets through the stop.
+# `Simulation` (docs/method.md section 8) is what gets through the stop.
 
 # +
 from __future__ import annotations
@@ -57,17 +57,18 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
+from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
     add_output_every_argument,
-    check_method_arguments,
+    check_output_folder,
     finite_float,
+    method_parameters,
     one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import add_block_probes, block_problem
-from nitsche_dolfinx.output import ensure_directory
-from nitsche_dolfinx.problem import FRICTION_HISTORY_COLUMNS, Simulation
+from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS
 
 #: ``history.csv`` columns: those of the 2D/3D demos, the energy balance, and the
 #: block's mean velocity along the plane.
@@ -98,8 +99,7 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
 
 
 # +
-def run(args) -> list[dict]:
-    check_method_arguments(args)
+def run(args):
     problem = block_problem(
         friction=args.mu,
         v0=args.v0,
@@ -145,15 +145,13 @@ def rigid_prediction(args) -> str:
 def main(argv=None) -> None:
     parser, args = parse_arguments(argv)
     with one_line_errors(parser):
-        if args.mu < 0:
-            raise ValueError(f"the friction coefficient must be >= 0, got --mu {args.mu!r}")
-        ensure_directory(args.out, MPI.COMM_WORLD)
+        method_parameters(args)  # --mu among them: checked before anything is computed
+        check_output_folder(args.out)
         history = run(args)
     if MPI.COMM_WORLD.rank == 0:
-        velocity = np.array([row["mean_velocity"] for row in history])
-        t = np.array([row["t"] for row in history])
-        dissipation = np.array([row["friction_dissipation"] for row in history])
-        balance = np.array([row["energy_balance_residual"] for row in history])
+        velocity, t = history["mean_velocity"], history["t"]
+        dissipation = history["friction_dissipation"]
+        balance = history["energy_balance_residual"]
         print(
             f"{rigid_prediction(args)}; computed mean velocity at t = {t[-1]:g}: {velocity[-1]:.6g}"
         )

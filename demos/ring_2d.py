@@ -115,16 +115,16 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx import HISTORY_COLUMNS, ContactProblem, Material, PlaneObstacle, Simulation
+from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
     add_output_every_argument,
-    check_method_arguments,
+    method_parameters,
     one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.plotting import latex_number
+from nitsche_dolfinx.plotting import energy_figure, latex_number
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")
@@ -175,7 +175,7 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
     Raises:
         ValueError: If a parameter is out of range or the mesh cannot be read.
     """
-    check_method_arguments(args)
+    method_parameters(args)
     scheme = scheme_from_arguments(args)
     mesh, facet_tags = load_mesh(args.mesh)
     if mesh.geometry.dim != 2:
@@ -197,29 +197,26 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
 # ### Measuring
 #
 # `Simulation.run` writes one row of `history.csv` per time level, $t = 0$
-# included, with the columns `HISTORY_COLUMNS`, and returns the same rows.
+# included, with the columns `HISTORY_COLUMNS`, and returns them as a `History`.
 # From them: the relative energy change at $T$, the largest increase of
 # $E_\Theta^h$ over one step (at most round-off for the hybrid scheme with
 # $\Theta = 1$), the largest contact force and penetration, the contact
 # interval and the Newton iterations.
 
 
-def summarize(history: dict, seconds: float) -> None:
+def summarize(history, seconds: float) -> None:
     """Print the numbers of one run (rank 0)."""
     t, energy, force = history["t"], history["energy"], history["contact_force"]
-    touching = t[force > 0]
+    interval = history.contact_interval()
     i = int(np.argmax(force))
     lines = [
         ("E(0), E(T)", f"{energy[0]:.10f}, {energy[-1]:.10f}"),
-        ("E(T)/E(0) - 1", f"{energy[-1] / energy[0] - 1:+.3e}"),
+        ("E(T)/E(0) - 1", f"{history.energy_drift():+.3e}"),
         ("largest one-step rise of E_Theta", f"{np.max(np.diff(history['energy_theta'])):.2e}"),
         ("largest contact force", f"{force[i]:.4g} at t = {t[i]:.4g}"),
         ("largest penetration u_n - g", f"{np.max(history['penetration_max']):.3e}"),
-        (
-            "in contact",
-            f"{touching[0]:.4g} <= t <= {touching[-1]:.4g}" if touching.size else "never",
-        ),
-        ("Newton iterations per step", f"{np.mean(history['newton_iterations'][1:]):.2f}"),
+        ("in contact", "never" if interval is None else "{:.4g} <= t <= {:.4g}".format(*interval)),
+        ("Newton iterations per step", f"{history.mean_newton_iterations():.2f}"),
         ("wall time", f"{seconds:.2f} s"),
     ]
     for label, value in lines:
@@ -228,65 +225,21 @@ def summarize(history: dict, seconds: float) -> None:
 
 # ### The figure
 #
-# Top: the energy $E^h$, its parts (kinetic, elastic, potential of gravity) and
-# $E_\Theta^h$. Middle: the relative changes of $E^h$ and $E_\Theta^h$, where
-# the losses at the impact show. Bottom: the contact force
+# `nitsche_dolfinx.plotting.energy_figure`: the energy $E^h$, its parts
+# (kinetic, elastic, potential of gravity) and $E_\Theta^h$; their relative
+# changes, where the losses at the impact show; the contact force
 # $\int_{\Gamma_C} \frac{1}{\gamma_h}[P_\gamma(u_h)]_+$. matplotlib is optional:
 # without it the demo only skips the figure.
 
 
-def plot(history: dict, args: argparse.Namespace, scheme: str, path: str) -> None:
-    """Draw the energies and the contact force against time into ``path``.
-
-    ``scheme`` names the time scheme in the title, e.g. ``newmark(beta=0.25, gamma=0.5)``.
-    """
-    try:
-        import matplotlib
-    except ImportError:
-        print("matplotlib is not installed: no figure")
-        return
-    matplotlib.use("Agg")  # no display needed
-    import matplotlib.pyplot as plt
-
-    t = history["t"]
-    fig, (top, middle, bottom) = plt.subplots(
-        3,
-        1,
-        figsize=(9, 9),
-        sharex=True,
-        gridspec_kw={"height_ratios": (2, 1, 1)},
-        constrained_layout=True,
-    )
-    for name, label, style in (
-        ("kinetic", "kinetic", {"color": "tab:orange"}),
-        ("elastic", "elastic", {"color": "tab:green"}),
-        ("potential", "potential (gravity)", {"color": "tab:purple"}),
-        ("energy", "$E^h$", {"color": "black", "lw": 2}),
-        ("energy_theta", r"$E_\Theta^h$", {"color": "tab:cyan", "ls": "--", "lw": 1.5}),
-    ):
-        top.plot(t, history[name], label=label, **style)
-    top.set_ylabel("energy")
-    top.legend(loc="lower right", fontsize="small")
-    for name, label, style in (
-        ("energy", "$E^h / E^h(0) - 1$", {"color": "black", "lw": 1.5}),
-        ("energy_theta", r"$E_\Theta^h / E_\Theta^h(0) - 1$", {"color": "tab:cyan", "ls": "--"}),
-    ):
-        middle.plot(t, history[name] / history[name][0] - 1, label=label, **style)
-    middle.set_ylabel("relative change")
-    middle.legend(loc="lower left", fontsize="small")
-    bottom.plot(t, history["contact_force"], color="tab:red", lw=1)
-    bottom.set_ylabel("contact force")
-    bottom.set_xlabel("time $t$")
-    for ax in (top, middle, bottom):
-        ax.grid(alpha=0.3)
-    fig.suptitle(
+def plot(history, args: argparse.Namespace, scheme: str, path: str) -> None:
+    """Draw the energies and the contact force against time into ``path``."""
+    title = (
         rf"2D bouncing ring, {scheme}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
         rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, "
         rf"$\tau = {latex_number(args.dt)}$"
     )
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    print(f"figure: {path}")
+    energy_figure([history], ["$E^h$"], ["black"], title, path)
 
 
 # ### Main
@@ -302,11 +255,10 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     with one_line_errors(parser):
         simulation = ring_simulation(args)
-        records = simulation.run(out=args.out, output_every=args.output_every)
+        history = simulation.run(out=args.out, output_every=args.output_every)
     seconds = time.perf_counter() - start
 
     if MPI.COMM_WORLD.rank == 0:
-        history = {name: np.array([r[name] for r in records]) for name in HISTORY_COLUMNS}
         summarize(history, seconds)
         print(f"history: {os.path.join(args.out, 'history.csv')}")
         if args.output_every > 0:

@@ -17,32 +17,22 @@ The file is written in the msh 4.1 ASCII format, which dolfinx reads through
 
 from __future__ import annotations
 
-import argparse
 import os
-import sys
 
-from nitsche_dolfinx.shapes import build_disk_model, write_msh
+from nitsche_dolfinx.shapes import build_disk_model, msh_command
 
 DEFAULT_OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "disk_2d.msh")
 
 
 def main(argv: list[str] | None = None) -> None:
     """Parse the command line and write the mesh."""
-    parser = argparse.ArgumentParser(description="Mesh the disk of the 2D impact test with gmsh.")
-    parser.add_argument(
-        "--mesh-size", type=float, default=8.0, help="target triangle size (default: 8)"
+    msh_command(
+        argv,
+        build_disk_model,
+        "Mesh the disk of the 2D impact test with gmsh.",
+        DEFAULT_OUT,
+        "triangles",
     )
-    parser.add_argument("--order", type=int, default=2, help="geometric order, 1 or 2 (default: 2)")
-    parser.add_argument(
-        "--out", default=DEFAULT_OUT, help="the .msh file to write (default: next to this script)"
-    )
-    args = parser.parse_args(argv)
-    try:
-        counts = write_msh(args.out, build_disk_model, mesh_size=args.mesh_size, order=args.order)
-    except (ValueError, OSError) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        sys.exit(2)
-    print(f"{args.out}: {counts['cells']} triangles, {counts['nodes']} nodes, order {args.order}")
 
 
 if __name__ == "__main__":

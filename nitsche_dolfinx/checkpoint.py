@@ -44,6 +44,7 @@ from mpi4py import MPI
 
 __all__ = [
     "CHECKPOINT_FILE",
+    "has_checkpoint",
     "load_state",
     "node_coordinates",
     "save_state",
@@ -162,6 +163,11 @@ def _write_atomically(path: str, write) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(temporary, path)
+
+
+def has_checkpoint(folder: str) -> bool:
+    """Whether ``folder`` holds a complete checkpoint (its metadata file names it)."""
+    return os.path.isfile(os.path.join(str(folder), CHECKPOINT_FILE))
 
 
 def write_checkpoint(

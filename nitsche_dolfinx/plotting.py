@@ -1,8 +1,41 @@
-"""Small helpers for the demos' matplotlib figures."""
+"""Figures of histories with matplotlib (optional): the guard every figure goes through,
+and the energy figure of the impact demos.
+
+Every function here is called on rank 0 with the histories returned by
+:meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>` (or read back
+with :func:`~nitsche_dolfinx.output.read_history`).
+"""
 
 from __future__ import annotations
 
-__all__ = ["latex_number"]
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = ["energy_figure", "latex_number", "pyplot", "save"]
+
+
+def pyplot():
+    """matplotlib's ``pyplot`` on the file-only Agg backend, or None (with one line saying
+    so) when matplotlib is not installed: a figure is never worth a failed demo."""
+    try:
+        import matplotlib
+    except ImportError:
+        print("matplotlib is not installed: no figure")
+        return None
+    matplotlib.use("Agg")  # no display needed
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, path: str, dpi: int = 120) -> None:
+    """Write the figure to ``path``, close it and say where it went."""
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    print(f"figure: {path}")
 
 
 def latex_number(x: float) -> str:
@@ -12,3 +45,65 @@ def latex_number(x: float) -> str:
         return mantissa
     power = f"10^{{{int(exponent)}}}"
     return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
+
+
+#: The parts of E^h drawn with a single run's energy.
+_PARTS = (
+    ("energy_theta", r"$E_\Theta^h$", {"color": "tab:cyan", "ls": "--"}),
+    ("kinetic", "kinetic", {"color": "tab:purple", "lw": 1}),
+    ("elastic", "elastic", {"color": "tab:brown", "lw": 1}),
+    ("potential", "potential (gravity)", {"color": "tab:gray", "lw": 1}),
+)
+
+
+def energy_figure(
+    histories: Sequence, labels: Sequence[str], colours: Sequence[str], title: str, path: str
+) -> None:
+    """The talk's "Energy E^h for different methods", or one run's energies.
+
+    Top: E^h of every run (of one run: E^h, E_Theta^h and the kinetic, elastic and
+    gravity parts). Middle, zoomed on the runs that keep E^h within 2 %: the relative
+    changes of E^h (thin) and E_Theta^h (thick), where the increases of E_Theta^h
+    show. Bottom: the contact force. The first history is the main run.
+    """
+    plt = pyplot()
+    if plt is None:
+        return
+    fig, (top, middle, bottom) = plt.subplots(
+        3, 1, figsize=(9, 10), sharex=True, constrained_layout=True,
+        gridspec_kw={"height_ratios": (2, 1.5, 1)},
+    )  # fmt: skip
+    zoomed = [np.max(np.abs(h["energy"] / h["energy"][0] - 1)) < 0.02 for h in histories]
+    if len(histories) == 1 or not any(zoomed):
+        zoomed = [True] * len(histories)
+    # the main run first and wide, the others over it, so that close curves all show
+    for i, (history, label, colour) in enumerate(zip(histories, labels, colours)):
+        t, energy, energy_theta = history["t"], history["energy"], history["energy_theta"]
+        width = 2.6 if i == 0 else 1.2
+        top.plot(t, energy, color=colour, lw=width, label=label)
+        bottom.plot(t, history["contact_force"], color=colour, lw=0.8 * width)
+        if zoomed[i]:
+            middle.plot(t, energy / energy[0] - 1, color=colour, lw=0.6, alpha=0.6)
+            change = energy_theta / energy_theta[0] - 1
+            middle.plot(t, change, color=colour, lw=width + 0.4, label=rf"$E_\Theta^h$, {label}")
+    if len(histories) == 1:
+        for name, label, style in _PARTS:
+            top.plot(histories[0]["t"], histories[0][name], label=label, **style)
+    top.set_ylabel("energy $E^h$")
+    top.legend(loc="lower left", fontsize="small")
+    middle.set_ylabel("relative change")
+    which = ", runs within 2 %" if not all(zoomed) else ""
+    middle.set_title(
+        rf"$E^h / E^h(0) - 1$ (thin) and $E_\Theta^h / E_\Theta^h(0) - 1$ (thick){which}",
+        fontsize="small",
+    )
+    middle.axhline(0.0, color="black", lw=0.5)
+    if middle.lines[1:]:
+        middle.legend(loc="lower left", fontsize="small")
+    bottom.set_ylabel("contact force")
+    bottom.set_xlabel("time $t$")
+    for ax in (top, middle, bottom):
+        ax.grid(alpha=0.3)
+    what = "Energy $E^h$ for different methods" if len(histories) > 1 else "Energies"
+    fig.suptitle(f"{what}: {title}", fontsize="medium")
+    save(fig, path)

@@ -33,6 +33,7 @@ __all__ = [
     "build_disk_model",
     "disk_mesh",
     "gmsh_session",
+    "msh_command",
     "write_msh",
 ]
 
@@ -322,3 +323,33 @@ def write_msh(path: str, build: Callable[..., None], **kwargs) -> dict[str, int]
             "nodes": len(gmsh.model.mesh.getNodes()[0]),
             "cells": sum(len(t) for t in tags),
         }
+
+
+def msh_command(
+    argv: list[str] | None,
+    build: Callable[..., None],
+    description: str,
+    default_out: str,
+    cells: str,
+) -> None:
+    """The command line of a mesh generator script (``meshes/ball_3d.py``): ``--mesh-size``,
+    ``--order`` and ``--out``; writes the ``.msh`` file of ``build`` and one line of counts,
+    or one line naming a bad value (exit status 2)."""
+    import argparse
+    import sys
+
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument(
+        "--mesh-size", type=float, default=8.0, help="target cell size (default: 8)"
+    )
+    parser.add_argument("--order", type=int, default=2, help="geometric order, 1 or 2 (default: 2)")
+    parser.add_argument(
+        "--out", default=default_out, help="the .msh file to write (default: next to the script)"
+    )
+    args = parser.parse_args(argv)
+    try:
+        counts = write_msh(args.out, build, mesh_size=args.mesh_size, order=args.order)
+    except (ValueError, OSError) as error:
+        print(f"{parser.prog}: error: {error}", file=sys.stderr)
+        sys.exit(2)
+    print(f"{args.out}: {counts['cells']} {cells}, {counts['nodes']} nodes, order {args.order}")

@@ -27,11 +27,12 @@ from .checkpoint import (
     save_state,
 )
 from .history import HISTORY_COLUMNS, History
+from .linear_solvers import linear_solver as linear_solver_preset
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .parameters import OutputParameters, TimeStepping
 from .schemes import TimeScheme
-from .solver import SolverError
+from .solver import SolverError, rigid_body_modes
 from .stepper import NitscheStepper, Stepper
 
 __all__ = ["Simulation"]
@@ -62,6 +63,10 @@ class Simulation:
             Newton guarded by a reference state (the default; False: plain semismooth
             Newton on [P_t]_r); see :class:`~nitsche_dolfinx.friction.GuardedNewton`
             and docs/method.md section 8.
+        linear_solver: A preset of :mod:`nitsche_dolfinx.linear_solvers` (``"lu"``,
+            ``"lu-lagged"``, ``"cg-gamg"``, ``"gmres-gamg"``); ``petsc_options`` win
+            over its options, and it sets ``preconditioner_lag``. None: the solver's
+            defaults.
 
     The state of the current time level is ``u``, ``v``, ``a``, ``t`` and
     ``step_index``; ``stepper`` is the object that makes the steps.
@@ -92,8 +97,16 @@ class Simulation:
         reuse_jacobian: bool = True,
         preconditioner_lag: int = 0,
         guard_friction: bool = True,
+        linear_solver: str | None = None,
     ):
         time_stepping = TimeStepping(dt, t_end)
+        preset = None
+        if linear_solver is not None:
+            preset = linear_solver_preset(linear_solver, problem.mesh.comm)
+            petsc_options = {**preset.petsc_options, **(petsc_options or {})}
+            preconditioner_lag = preset.preconditioner_lag
+        #: A description of the linear solver, for summaries.
+        self.linear_solver = preset.description if preset is not None else "default"
         if problem.method == "mixed":
             from .mixed import MixedStepper
 
@@ -108,8 +121,16 @@ class Simulation:
                 preconditioner_lag,
                 guard_friction,
             )
+        if preset is not None and preset.near_nullspace:
+            self.stepper.solver.set_near_nullspace(rigid_body_modes(problem.V))
         self.progress = progress
         self._probes: dict[str, Callable[[], float]] = {}
+
+    @property
+    def dofs(self) -> int:
+        """The global number of degrees of freedom of the displacement."""
+        V = self.problem.V
+        return V.dofmap.index_map.size_global * V.dofmap.index_map_bs
 
     def add_probe(self, name: str, probe: Callable[[], float]) -> None:
         """Add a history column computed by ``probe()`` at every time level (the same

@@ -1,0 +1,217 @@
+"""Pictures of the deformed body coloured by von Mises, from any MPI run (pyvista, optional).
+
+:class:`Snapshot` is a :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>`
+callback that gathers the fields of one time level on rank 0;
+:func:`render_deformed` draws them off screen: the curved (P2-geometry) cells are
+drawn curved, with their edges. Used by the impact demos::
+
+    snapshot = Snapshot(at=18.0)
+    simulation.run(out=out, callback=snapshot)
+    render_deformed(snapshot, dim=3, title="ball", path="deformed_t18.png")
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+from dolfinx import fem
+
+from . import compat
+from .material import von_mises
+
+__all__ = ["Snapshot", "render_deformed"]
+
+
+class Snapshot:
+    """A ``Simulation.run`` callback that keeps the fields at the time level closest to ``at``.
+
+    The displacement and the von Mises stress are interpolated into the Lagrange
+    space of the mesh's geometric degree and gathered on rank 0 with the cells
+    (owned cells of each rank, dofs numbered globally), so that the picture of an
+    MPI run is the same as a serial one.
+    """
+
+    def __init__(self, at: float):
+        self.at = at
+        self.t = None
+        self.grid = None  # on rank 0: (cells, cell types, points, displacement, von Mises)
+
+    def __call__(self, simulation) -> None:
+        if simulation.step_index != int(round(self.at / simulation.dt)):
+            return
+        mesh = simulation.problem.mesh
+        gdim = mesh.geometry.dim
+        W = compat.function_space(mesh, "Lagrange", compat.geometry_degree(mesh))
+        expressions = [simulation.u[i] for i in range(gdim)] + [
+            von_mises(simulation.u, simulation.problem.material)
+        ]
+        values = []
+        for expression in expressions:
+            field = fem.Function(W)
+            field.interpolate(compat.expression(expression, W))
+            values.append(field.x.array.copy())
+        topology, cell_types, points = compat.vtk_mesh(W)
+        index_map = W.dofmap.index_map
+        owned = index_map.size_local
+        global_index = np.concatenate(
+            [np.arange(*index_map.local_range, dtype=np.int64), index_map.ghosts.astype(np.int64)]
+        )
+        cells = np.asarray(topology, dtype=np.int64).reshape(len(cell_types), -1)
+        cells[:, 1:] = global_index[cells[:, 1:]]
+        values = np.stack(values, axis=1)
+        local = (cells, cell_types, global_index[:owned], points[:owned], values[:owned])
+        parts = mesh.comm.gather(local, root=0)
+        self.t = simulation.t
+        if mesh.comm.rank != 0:
+            return
+        size = index_map.size_global
+        all_points, all_values = np.zeros((size, 3)), np.zeros((size, gdim + 1))
+        for _, _, indices, part_points, part_values in parts:
+            all_points[indices] = part_points
+            all_values[indices] = part_values
+        displacement = np.zeros((size, 3))
+        displacement[:, :gdim] = all_values[:, :gdim]
+        self.grid = (
+            np.concatenate([p[0].reshape(-1) for p in parts]),
+            np.concatenate([p[1] for p in parts]),
+            all_points,
+            displacement,
+            all_values[:, gdim],
+        )
+
+
+def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None:
+    """Draw the deformed body coloured by von Mises into ``path`` (rank 0).
+
+    pyvista is optional and renders off screen; if it is missing or rendering
+    fails, one line says so and the demo goes on.
+    """
+    if snapshot.grid is None:
+        print(f"no picture: this run did not compute the time level t = {snapshot.at:g}")
+        return
+    with compat.own_symbols():
+        try:
+            import pyvista
+        except ImportError:
+            print("pyvista is not installed: no picture")
+            return
+        try:
+            _render(pyvista, snapshot, dim, title, path)
+        except Exception as error:  # a picture is never worth a failed run
+            print(f"no picture: rendering failed ({type(error).__name__}: {error})")
+            return
+    print(f"picture: {path}")
+
+
+def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> None:
+    with contextlib.suppress(ImportError):  # no "bad X server connection" warnings
+        from vtkmodules.vtkCommonCore import vtkLogger
+
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+    pyvista.OFF_SCREEN = True
+    cells, cell_types, points, displacement, von_mises = snapshot.grid
+    grid = pyvista.UnstructuredGrid(cells, cell_types, points)
+    grid.point_data["displacement"] = displacement
+    grid.point_data["von Mises"] = von_mises
+    deformed = grid.warp_by_vector("displacement", factor=1.0)
+    # the curved (quadratic) faces, subdivided 3 times so that the body looks curved,
+    # and the cell edges, sampled at the same points, so that they lie on that surface
+    surface = _surface(deformed, 3)
+    edges = _curved_edges(pyvista, cells, deformed.points, samples=8)
+    top = 5.0 * np.ceil(np.max(von_mises) / 5.0)  # a round top for the colour scale
+    colours = {"scalars": "von Mises", "cmap": "jet", "clim": (0.0, top)}
+    bar = {
+        "title": "von Mises stress",
+        "n_labels": int(round(top / 5.0)) + 1,
+        "fmt": "%.0f",
+        "position_x": 0.3,
+        "position_y": 0.04,
+        "width": 0.4,
+        "height": 0.06,
+    }
+    text = f"{title}, t = {snapshot.t:.4g}"
+    if dim == 3:
+        plotter = _plot_3d(pyvista, deformed, surface, edges, colours, bar, text)
+    else:
+        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text)
+    plotter.screenshot(path)
+    plotter.close()
+
+
+def _surface(grid, subdivision: int):
+    """The boundary of ``grid``, its curved faces cut ``subdivision`` times."""
+    try:
+        return grid.extract_surface(nonlinear_subdivision=subdivision, algorithm="dataset_surface")
+    except TypeError:  # pyvista before the ``algorithm`` keyword
+        return grid.extract_surface(nonlinear_subdivision=subdivision)
+
+
+#: Edges of the VTK (Lagrange) triangles and tetrahedra, by number of nodes per cell:
+#: (first vertex, second vertex[, middle node]).
+_CELL_EDGES = {
+    3: ((0, 1), (1, 2), (2, 0)),
+    6: ((0, 1, 3), (1, 2, 4), (2, 0, 5)),
+    4: ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)),
+    10: ((0, 1, 4), (1, 2, 5), (2, 0, 6), (0, 3, 7), (1, 3, 8), (2, 3, 9)),
+}
+
+
+def _curved_edges(pyvista, cells: np.ndarray, points: np.ndarray, samples: int):
+    """The edges of all cells as polylines through ``samples + 1`` points each.
+
+    A quadratic edge is the parabola through its two vertices and its middle node.
+    Edges inside a 3D body are hidden by its surface.
+    """
+    nodes = int(cells[0])
+    connectivity = cells.reshape(-1, nodes + 1)[:, 1:]
+    s = np.linspace(0.0, 1.0, samples + 1)[None, :, None]
+    lines = []
+    for edge in _CELL_EDGES[nodes]:
+        first, second = points[connectivity[:, edge[0]]], points[connectivity[:, edge[1]]]
+        line = (1 - s) * first[:, None] + s * second[:, None]
+        if len(edge) == 3:  # the quadratic correction through the middle node
+            middle = points[connectivity[:, edge[2]]]
+            line += 4 * s * (1 - s) * (middle - (first + second) / 2)[:, None]
+        lines.append(line.reshape(-1, 3))
+    polyline_points = np.concatenate(lines)
+    count, length = len(polyline_points) // (samples + 1), samples + 1
+    indices = np.arange(count * length).reshape(count, length)
+    polylines = np.hstack([np.full((count, 1), length), indices]).ravel()
+    return pyvista.PolyData(polyline_points, lines=polylines)
+
+
+def _plot_3d(pyvista, deformed, surface, edges, colours, bar, text):
+    """The ball from aside on the ground, and its far half with the cut through the centre."""
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
+    ground = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
+    camera = [(80.0, -100.0, 38.0), (0.0, 0.0, 13.0), (0.0, 0.0, 1.0)]
+    plotter.subplot(0, 0)
+    plotter.add_mesh(surface, show_scalar_bar=False, **colours)
+    plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
+    plotter.add_mesh(ground, color="lightgray")
+    plotter.camera_position = camera
+    plotter.add_text(text, font_size=11)
+    # the far half of the surface and the cut through the centre, y = 0
+    plotter.subplot(0, 1)
+    far_half = surface.clip(normal=(0, -1, 0), origin=(0, 0, 0))
+    plotter.add_mesh(far_half, show_scalar_bar=False, **colours)
+    cut = deformed.slice(normal=(0, 1, 0), origin=(0, 0, 0))
+    plotter.add_mesh(cut, scalar_bar_args=bar, **colours)
+    plotter.add_mesh(ground, color="lightgray")
+    plotter.camera_position = camera
+    plotter.add_text("cut through the centre, y = 0", font_size=11)
+    return plotter
+
+
+def _plot_2d(pyvista, surface, edges, colours, bar, text):
+    """The disk on the ground line, seen along z."""
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
+    plotter.add_mesh(surface, scalar_bar_args=bar, **colours)
+    plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
+    ground = pyvista.Line((-32.0, 0.0, 0.0), (32.0, 0.0, 0.0))
+    plotter.add_mesh(ground, color="black", line_width=4)
+    plotter.view_xy()
+    plotter.camera.zoom(1.35)
+    plotter.add_text(text, font_size=11)
+    return plotter
