@@ -71,63 +71,11 @@
 #
 # ## Parameters and results
 #
-# The defaults are the talk's: P2 Lagrange, $h \approx 8$ (482 tetrahedra; the
-# talk's ball has about 400), $\tau = 0.1$, $T = 40$, $\Theta = 1$,
-# $\gamma_0 = 10^{-3}$. For the energy figure, the main run is compared with
-# the other three schemes of the talk: Crank-Nicolson, backward Euler
-# ($\theta = 1$) and Newmark with $\beta = 1/2$, $\gamma = 1$, the Newmark
-# scheme the talk proves stable ($\beta = 1/4$, $\gamma = 1/2$ would be
-# Crank-Nicolson again); `--scheme newmark` also defaults to it.
-#
-# With these defaults (numbers printed by this demo; serial and
-# `mpirun -n 2` histories agree to $10^{-13}$):
-#
-# - the ball (2625 DOFs, 400 steps) first touches the plane at $t = 10.1$,
-#   the first time level with a positive contact force (at $t = 10$ its
-#   lowest point just reaches the plane), stays on it until $t = 29.1$ and
-#   flies up again. The contact force peaks at $1.3 \cdot 10^4$, four times
-#   the weight of the ball, at $t = 19.5$;
-# - with the hybrid scheme $E_\Theta^h$ never increases (its largest rise
-#   over one step is $3 \cdot 10^{-14} E_\Theta^h(0)$, round-off); it loses
-#   0.044 % in all, half of it in the first two time units of the impact.
-#   $E^h$ itself swings by up to 0.36 % during the contact (the Nitsche terms
-#   that make the difference between $E^h$ and $E_\Theta^h$) and ends 0.039 %
-#   below its initial value;
-# - Crank-Nicolson ends as close ($-0.015$ %), but its $E_\Theta^h$
-#   increases in 88 steps, by up to $10^{-5} E_\Theta^h(0)$ in one step,
-#   while the ball unloads and leaves the plane ($19 \le t \le 29$): no
-#   energy estimate holds for it;
-# - backward Euler loses 21 % of the energy, 1 % of it already during the
-#   fall, and Newmark (1/2, 1) loses 11 %, all of it during the contact;
-#   both never increase $E_\Theta^h$, as the talk proves;
-# - the largest penetration, 0.20, is about $\gamma_h$ times the contact
-#   pressure: it shrinks with $\gamma_0$. Newton needs 1.02 iterations per
-#   step.
-#
-# Each run's time loop takes about 6 s with the default direct solver on a
-# two-core machine with OpenBLAS (MUMPS spends most of it re-factorising the
-# Jacobian, at every change of the contact set: 183 times), about 4 s with
-# `--linear-solver lu-lagged`; with the comparison, the demo takes about a
-# minute.
-#
-# ## Linear solvers
-#
-# Each Newton iteration solves one linear system with the Jacobian
-# $M + c\,\tau^2 (K + \text{contact part})$. The library assembles the bulk
-# part once and changes the matrix only when the contact set changes. The
-# `--linear-solver` flag chooses how to solve with it:
-#
-# - `lu` (default): a direct factorisation, with MUMPS when PETSc has it
-#   (serially its LDL^T here, since the Jacobian is symmetric for $\Theta = 1$;
-#   PETSc's own LU is serial only), redone at every change of the matrix;
-# - `lu-lagged`: the last factorisation as the preconditioner of GMRES,
-#   redone only when GMRES needs more than 10 iterations
-#   (`Simulation(preconditioner_lag=10)`);
-# - `cg-gamg`, `gmres-gamg`: conjugate gradients (the Jacobian is symmetric
-#   positive definite for $\Theta = 1$) or GMRES, preconditioned by PETSc's
-#   algebraic multigrid with the six rigid motions of the ball as the
-#   near-nullspace of the matrix, as in dolfinx's elasticity demo;
-#   `--petsc pc_gamg_threshold=0.02` and the like tune it.
+# The defaults are the talk's: P2, $h \approx 8$, $\tau = 0.1$, $T = 40$,
+# $\Theta = 1$, $\gamma_0 = 10^{-3}$; the main run is compared with
+# Crank-Nicolson, backward Euler and Newmark ($\beta = 1/2$, $\gamma = 1$).
+# `--linear-solver` picks a preset of `nitsche_dolfinx.linear_solvers`. What
+# the demo prints, and what it shows, is in `docs/results.md`.
 #
 # ## Implementation
 #

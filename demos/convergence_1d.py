@@ -61,71 +61,8 @@
 # ($s = t \bmod 3$), so each cell is cut at those kinks and each piece is
 # integrated by a 4-point Gauss rule, exact for the polynomials there.
 #
-# ### Results
-#
-# Measured (dolfinx 0.5.2, serial, the defaults; the demo prints the same
-# table for every method, `OUT/convergence.csv` has all digits). Errors, and
-# in brackets the observed order $\log(e_{k-1}/e_k)/\log 2$ against the
-# previous level. **Nitsche hybrid**:
-#
-# | N | l2(L2) u | l2(H1) u | pressure lambda_h | sigma_n(u_h) at 0 | energy |
-# |---|---|---|---|---|---|
-# | 25 | 2.06e-2 | 2.20e-1 | 4.95e-1 | 2.00e-1 | 4.20e-3 |
-# | 50 | 1.24e-2 (0.73) | 1.79e-1 (0.30) | 5.44e-1 (-0.13) | 1.31e-1 (0.62) | 1.55e-3 (1.44) |
-# | 100 | 7.67e-3 (0.70) | 1.43e-1 (0.33) | 5.22e-1 (0.06) | 1.07e-1 (0.29) | 9.71e-4 (0.67) |
-# | 200 | 4.58e-3 (0.74) | 1.14e-1 (0.32) | 5.39e-1 (-0.05) | 7.27e-2 (0.56) | 4.52e-4 (1.10) |
-# | 400 | 2.87e-3 (0.68) | 9.14e-2 (0.32) | 5.75e-1 (-0.09) | 5.83e-2 (0.32) | 2.20e-4 (1.04) |
-#
-# **Modified mass + CN**:
-#
-# | N | l2(L2) u | l2(H1) u | pressure lambda_h | sigma_n(u_h) at 0 | energy |
-# |---|---|---|---|---|---|
-# | 25 | 3.63e-2 | 2.47e-1 | 1.52e-1 | 1.95e-1 | 7.68e-3 |
-# | 50 | 2.01e-2 (0.85) | 1.95e-1 (0.34) | 9.79e-2 (0.63) | 1.31e-1 (0.58) | 3.84e-3 (1.00) |
-# | 100 | 1.14e-2 (0.82) | 1.54e-1 (0.33) | 8.17e-2 (0.26) | 1.02e-1 (0.36) | 1.92e-3 (1.00) |
-# | 200 | 6.63e-3 (0.78) | 1.23e-1 (0.33) | 5.43e-2 (0.59) | 6.94e-2 (0.56) | 9.61e-4 (1.00) |
-# | 400 | 3.91e-3 (0.76) | 9.83e-2 (0.33) | 4.53e-2 (0.26) | 5.47e-2 (0.34) | 4.80e-4 (1.00) |
-#
-# What the numbers say:
-#
-# - **Hybrid**: every error of $u$ and the energy error decrease at every
-#   level; over the finest three levels the orders are 0.74 and 0.68 in
-#   $\ell^2(\tau; L^2)$ and 0.32 and 0.32 in $\ell^2(\tau; H^1)$ (the demo
-#   prints this check). The energy error, lost at the impact, is $O(h)$.
-# - The $H^1$ order $1/3$ is not due to contact: the exact strain and
-#   velocity jump across fronts (the initial stress $-1/2$ meets the free end
-#   $x = 0$), which P1 elements with a non-dissipative second-order scheme
-#   smear out; over the flight alone ($T = 0.9$) the hybrid run has the
-#   orders 0.99 in $\ell^2(L^2)$ and exactly 0.33 in $\ell^2(H^1)$. The
-#   contact phase lowers the $L^2$ order to about 0.7. These orders change
-#   neither with $T = 6$ (0.72, 0.67 and 0.32, 0.32 over the finest levels)
-#   nor with $\gamma_0$ from $10^{-6}$ to $10^{-1}$ (the errors of $u$ change
-#   by at most 7%, the orders stay within 0.67-0.78 and 0.30-0.34); with
-#   $\gamma_0 = 1$ the symmetric variant is unstable, as the talk's condition
-#   $(1 + \Theta)^2 \gamma_0 \le C (1 + \rho h^2 / \tau^2)$ warns (the energy
-#   error is 7 at $N = 25$ and doubles with every level). With
-#   $\tau = 0.5\,h$ the $L^2$ orders fluctuate between levels (0.88, 0.58,
-#   0.78, 0.54; mean 0.70), so that the finest step falls below 0.6.
-# - **The pressure $\lambda_h$ of Nitsche's method does not converge in
-#   $\ell^2(\tau)$ at the time levels**: during contact the contact point
-#   alternates around the wall by about $\gamma_h |\sigma_n|$, and
-#   $\lambda_h(t^n, 0)$ alternates between about 0 and $-1$ (see
-#   `demos/compare_methods_1d.py`), an $O(1)$ error at every level. The
-#   normal stress $\sigma_n(u_h)$ at the wall, which the method makes the
-#   pressure equal to, converges, with orders between 0.3 and 0.6 (mean
-#   0.45). The multiplier of the modified mass method converges the same way.
-# - **Modified mass + CN** converges like the hybrid scheme, with a slightly
-#   higher $L^2$ order (0.76 to 0.85) but larger errors, and energy errors
-#   twice as large (its first step loses $0.16\,h$, see
-#   `demos/compare_methods_1d.py`).
-# - **Nitsche + CN** and **Mixed + CN** (consistent mass) do not converge:
-#   the two agree to the third digit on the coarse levels, and the energy
-#   of both grows within one period on the fine ones (max $|E - 1/8|$ = 0.25,
-#   three times the exact energy, at $N = 400$), so the $H^1$, pressure and
-#   energy errors grow.
-#
-# The whole study takes about 20 seconds (the finest level 3 to 4 s per
-# method).
+# The table the demo prints with the defaults, and the observed orders, are
+# in `docs/results.md`.
 #
 # ## Implementation
 

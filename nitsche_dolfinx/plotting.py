@@ -1,5 +1,5 @@
 """Figures of histories with matplotlib (optional): the guard every figure goes through,
-and the energy figure of the impact demos.
+the energy figure of the impact demos and the panels of the 1D bar.
 
 Every function here is called on rank 0 with the histories returned by
 :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>` (or read back
@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["energy_figure", "latex_number", "pyplot", "save"]
+__all__ = ["BAR_PANELS", "bar_panels", "energy_figure", "latex_number", "pyplot", "save"]
 
 
 def pyplot():
@@ -107,3 +107,30 @@ def energy_figure(
     what = "Energy $E^h$ for different methods" if len(histories) > 1 else "Energies"
     fig.suptitle(f"{what}: {title}", fontsize="medium")
     save(fig, path)
+
+
+#: The talk's panels of the 1D bar: (history column, title), values at x = 0.
+BAR_PANELS = (
+    ("u_contact", "displacement $u_h(t, 0)$"),
+    ("v_contact", r"velocity $\dot u_h(t, 0)$"),
+    ("sigma_contact", "contact pressure at $x = 0$"),
+    ("energy", "energy $E^h$"),
+)
+
+
+def bar_panels(axes, histories: Sequence, labels: Sequence[str], styles: Sequence[dict], t_end):
+    """Draw the four :data:`BAR_PANELS` of the bar into ``axes``, each run over the exact
+    solution (black; docs/method.md section 5): ``styles`` are matplotlib line options."""
+    from .exact import BAR_ENERGY, bar_contact_values
+
+    t_exact = np.linspace(0.0, t_end, 4001)  # fine, so that the kinks stay sharp
+    exact = dict(zip(("u_contact", "v_contact", "sigma_contact"), bar_contact_values(t_exact)))
+    for ax, (name, title) in zip(axes, BAR_PANELS):
+        if name == "energy":
+            ax.axhline(BAR_ENERGY, color="black", lw=1.4, zorder=10, label="exact")
+        else:
+            ax.plot(t_exact, exact[name], color="black", lw=1.4, zorder=10, label="exact")
+        for history, label, style in zip(histories, labels, styles):
+            ax.plot(history["t"], history[name], label=label, **style)
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
