@@ -118,24 +118,12 @@ ERRORS = {
 }
 # -
 
-# ### The exact solution's gradient
-#
-# `nitsche_dolfinx.exact` gives $u(t, x)$; its $x$-derivative, piecewise
-# constant with the same kinks, is read off the same formulas.
-
-
-# `bar_strain` and `bar_kinks` in `nitsche_dolfinx.exact` give it.
-
-
 # ### Space-time errors, accumulated step by step
 #
-# `BarSpaceTimeErrors` is called once at $t = 0$ and then by `run()` after
-# every step with the simulation, whose `u` is the discrete displacement
-# at `t`. It evaluates $u_h$ with `Function.eval` and $\partial_x u_h$ by
-# interpolating it exactly into a DG space (degree $p - 1$), on the cells
-# this rank owns, and sums over the ranks.
-
-# (`nitsche_dolfinx.exact.BarSpaceTimeErrors`)
+# `nitsche_dolfinx.exact.BarSpaceTimeErrors` is called once at $t = 0$ and
+# then by `run()` after every step: it evaluates $u_h$ and $\partial_x u_h$ on
+# the cells this rank owns against the exact $u$ and its strain (`bar_strain`,
+# with its kinks), and sums over the ranks.
 
 
 # ### One level

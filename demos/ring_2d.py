@@ -48,25 +48,12 @@
 # $u_n = u \cdot n_c$ and $\sigma_n(u) = (\sigma(u) n) \cdot n_c$. There is no
 # Dirichlet condition: the ring is free.
 #
-# Nitsche's method replaces the three contact conditions by
-# $\sigma_n(u) = -\frac{1}{\gamma}[P_\gamma(u)]_+$ with
-# $P_\gamma(u) = u_n - g - \gamma \sigma_n(u)$, $\gamma_h = \gamma_0 h_T$,
-# in the weak form
-#
-# $$
-# (\rho \ddot u_h, v_h) + A_{\Theta\gamma}(u_h, v_h)
-# + \int_{\Gamma_C} \frac{1}{\gamma_h} [P_\gamma(u_h)]_+ P_{\Theta\gamma}(v_h)
-# = L(v_h) \quad \forall v_h.
-# $$
-#
-# The hybrid scheme takes the bulk terms at the midpoint and the contact term,
-# per quadrature point, at the midpoint where the point was in contact at
-# $t^n$ and with Crank-Nicolson elsewhere. For $\Theta = 1$ it never increases
-# the modified energy
-# $E_\Theta^h = E^h - \frac\Theta2 \big(\|\gamma_h^{1/2}\sigma_n(u_h)\|^2
-# - \|\gamma_h^{-1/2}[P_\gamma(u_h)]_+\|^2\big)$, where
-# $E^h = \frac12\|\sqrt\rho\,\dot u_h\|^2 + \frac12 a(u_h, u_h) - L(u_h)$
-# includes the potential energy of gravity.
+# Nitsche's method puts the three contact conditions into the weak form as one
+# term, $\int_{\Gamma_C} \frac{1}{\gamma_h}[P_\gamma(u_h)]_+ P_{\Theta\gamma}(v_h)$
+# with $P_\gamma(u) = u_n - g - \gamma_h \sigma_n(u)$ and $\gamma_h = \gamma_0 h_T$
+# (docs/method.md section 2). The hybrid scheme takes the bulk terms at the
+# midpoint and switches the contact term per quadrature point; with $\Theta = 1$
+# it never increases the energy $E_\Theta^h$ (docs/method.md sections 3 and 4).
 #
 # ## Parameters
 #
