@@ -201,7 +201,7 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
     simulation.solver.destroy()  # collectively, not whenever the garbage collector runs
     label = f"Nitsche + {simulation.scheme.describe()}"
     return history, {"label": label, "out": out, "seconds": seconds, "dofs": simulation.dofs,
-                     "linear_solver": simulation.linear_solver}  # fmt: skip
+                     "linear_solver": simulation.solver_description}  # fmt: skip
 
 
 # ### The summary

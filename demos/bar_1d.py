@@ -140,18 +140,10 @@ def make_parser() -> argparse.ArgumentParser:
 
 
 def bar_simulation(args: argparse.Namespace, scheme_name: str, method: str):
-    """The bar of docs/method.md section 5 with the parameters of ``args``.
-
-    ``nitsche_dolfinx.cases.bar_problem`` is a dozen lines of the public API:
-    ``bar_mesh``, a ``ContactProblem`` with ``Material(E=1, nu=0, rho=1)``,
-    ``add_dirichlet`` at ``BAR_CLAMPED``, ``add_obstacle(PlaneObstacle([0.0],
-    [1.0]), BAR_CONTACT)`` and ``set_initial_conditions(displacement=lambda x:
-    0.5 - x[0] / 2)``; ``cases.bar_simulation`` adds the scheme and the probes
-    u_contact, v_contact and sigma_contact at x = 0.
-
-    Raises:
-        ValueError: If a parameter is out of range.
-    """
+    """The bar of docs/method.md section 5 with the parameters of ``args``: ``bar_mesh``,
+    a ``ContactProblem`` with ``Material(E=1, nu=0, rho=1)``, ``add_dirichlet`` at
+    ``BAR_CLAMPED``, ``add_obstacle(PlaneObstacle([0.0], [1.0]), BAR_CONTACT)``,
+    ``set_initial_conditions``, then the scheme and the three probes at x = 0."""
     return cases.bar_simulation(
         scheme_from_arguments(args, scheme_name),
         method=method,

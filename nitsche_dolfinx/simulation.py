@@ -105,8 +105,8 @@ class Simulation:
             preset = linear_solver_preset(linear_solver, problem.mesh.comm)
             petsc_options = {**preset.petsc_options, **(petsc_options or {})}
             preconditioner_lag = preset.preconditioner_lag
-        #: A description of the linear solver, for summaries.
-        self.linear_solver = preset.description if preset is not None else "default"
+        #: The linear solver in words, for summaries.
+        self.solver_description = preset.description if preset is not None else "default"
         if problem.method == "mixed":
             from .mixed import MixedStepper
 

@@ -132,3 +132,16 @@ def test_symmetric_jacobian_factorised_by_ldlt():
     assert np.allclose(symmetric.u.x.array, lu.u.x.array, rtol=0, atol=1e-9 * scale)
     problem = impact_problem(dim=2, mesh_size=8.0, nitsche_theta=0.0)
     assert not problem.symmetric_jacobian
+
+
+def test_linear_solver_presets_reach_the_same_states():
+    """Simulation(linear_solver=...): the lagged factorisation and CG with algebraic
+    multigrid (rigid-body near-nullspace) follow the direct solver through the impact."""
+    steps = 110
+    reference, _ = _disk_steps(steps)
+    scale = np.abs(reference.u.x.array).max()
+    for name, pc_type in (("lu-lagged", ("lu", "cholesky")), ("cg-gamg", ("gamg",))):
+        simulation, _ = _disk_steps(steps, linear_solver=name)
+        assert simulation.solver_description.startswith(name)
+        assert simulation.solver.snes.getKSP().getPC().getType() in pc_type
+        assert np.allclose(simulation.u.x.array, reference.u.x.array, atol=1e-8 * scale, rtol=0)
