@@ -100,6 +100,7 @@ from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.shapes import check_body_mesh
 
 # -
 
@@ -155,10 +156,11 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
     return parser
 
 
-def check_arguments(args: argparse.Namespace) -> None:
+def check_arguments(args: argparse.Namespace, dim: int) -> None:
     """Every flag in range and the output folder writable, before any computing."""
     method_parameters(args)
     require(args.mesh_size > 0, "mesh_size", args.mesh_size, "the mesh size must be positive")
+    check_body_mesh(args.mesh_size, order=2, radius=20.0, dim=dim)  # not too many cells
     check_output_folder(args.out)
 
 
@@ -258,7 +260,7 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
     schemes = [args.scheme] + [s for s in COMPARED_SCHEMES if compare and s != args.scheme]
     snapshot = Snapshot(at=PICTURE_TIME)
     with one_line_errors(parser):
-        check_arguments(args)
+        check_arguments(args, dim)
         runs = [run(args, dim, args.scheme, args.out, callback=snapshot)]
         for name in schemes[1:]:
             runs.append(run(args, dim, name, os.path.join(args.out, name), compared=True))

@@ -170,16 +170,49 @@ def validate(config: dict, source: str = "config") -> None:
                 _check_table(item, schema[0], f"{source}: [[{table}]] #{index + 1}")
         else:
             _check_table(value, schema, f"{source}: [{table}]")
-    if "petsc" in config and not isinstance(config["petsc"], dict):
-        raise ConfigError(f"{source}: [petsc] must be a table of PETSc options")
+    _check_petsc(config.get("petsc", {}), source)
     material = config["material"]
     if not ({"E", "nu"} <= material.keys() or {"lmbda", "mu"} <= material.keys()):
         raise ConfigError(f"{source}: [material] needs E and nu, or lmbda and mu")
+    both = sorted(material.keys() & {"E", "nu"}), sorted(material.keys() & {"lmbda", "mu"})
+    if both[0] and both[1]:
+        raise ConfigError(
+            f"{source}: [material] gives {' and '.join(both[0])} with {' and '.join(both[1])}: "
+            "give E and nu, or lmbda and mu"
+        )
+    _check_scheme_keys(config["scheme"], source)
     for index, obstacle in enumerate(config.get("obstacle", [])):
         kind = obstacle.get("type", "plane")
         if kind != "plane":
             raise ConfigError(
                 f"{source}: [[obstacle]] #{index + 1} type {kind!r} is not known (use 'plane')"
+            )
+
+
+def _check_petsc(petsc, source: str) -> None:
+    """[petsc]: a flat table of options whose values are strings, numbers or booleans."""
+    if not isinstance(petsc, dict):
+        raise ConfigError(f"{source}: [petsc] must be a table of PETSc options")
+    for key, value in petsc.items():
+        if isinstance(value, (dict, list)):
+            raise ConfigError(
+                f"{source}: [petsc] {key} must be a string, number or boolean, got "
+                f"{value!r} (write options flat, e.g. snes_rtol = 1e-8)"
+            )
+
+
+def _check_scheme_keys(scheme: dict, source: str) -> None:
+    """[scheme] theta, beta, gamma only for the scheme that takes them."""
+    from .schemes import SCHEMES
+
+    name = scheme.get("name", "hybrid")
+    if name not in SCHEMES:
+        return  # named by the scheme's own check, with the table's label
+    for key in ("theta", "beta", "gamma"):
+        if key in scheme and key not in SCHEMES[name].parameters:
+            raise ConfigError(
+                f"{source}: [scheme] {key} = {scheme[key]!r} is not a parameter of the "
+                f"{name!r} scheme (it takes {', '.join(SCHEMES[name].parameters) or 'none'})"
             )
 
 
@@ -222,6 +255,9 @@ _KEYS = {
     "degree": "[mesh] degree",
     "output_every": "[output] every",
     "checkpoint_every": "[output] checkpoint_every",
+    "initial displacement": "[initial] displacement",
+    "initial velocity": "[initial] velocity",
+    "initial_displacement": "[initial] displacement",
 }
 
 
@@ -237,6 +273,8 @@ def _reported_at(where: str, source: str):
         raise
     except ParameterError as error:
         key = _KEYS.get(error.name, f"{where} {error.name}")
+        if error.explicit:  # the error's own words, after its table
+            raise ConfigError(f"{source}: {key.split(' ')[0]} {error}") from None
         raise ConfigError(f"{source}: {error.named(f'{key} = {error.value!r}')}") from None
     except ValueError as error:
         raise ConfigError(f"{source}: {where} {error}") from None

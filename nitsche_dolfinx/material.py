@@ -8,6 +8,7 @@ and ``sigma_t(u) = sigma(u) n - sigma_n(u) n_c``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import ufl
@@ -30,17 +31,17 @@ class Material:
     rho: float = 1.0
 
     def __post_init__(self):
-        if not self.E > 0:
-            raise ValueError(f"Young's modulus E must be positive, got E={self.E!r}")
+        if not (math.isfinite(self.E) and self.E > 0):
+            raise ValueError(f"Young's modulus E must be positive and finite, got E={self.E!r}")
         if not -1.0 < self.nu < 0.5:
             raise ValueError(f"Poisson's ratio nu must lie in (-1, 1/2), got nu={self.nu!r}")
-        if not self.rho > 0:
-            raise ValueError(f"density rho must be positive, got rho={self.rho!r}")
+        if not (math.isfinite(self.rho) and self.rho > 0):
+            raise ValueError(f"density rho must be positive and finite, got rho={self.rho!r}")
 
     @classmethod
     def from_lame(cls, lmbda: float, mu: float, rho: float = 1.0) -> Material:
         """The material with Lame coefficients ``lmbda`` and ``mu``."""
-        if not mu > 0:
+        if not (math.isfinite(mu) and math.isfinite(lmbda) and mu > 0):
             raise ValueError(f"shear modulus mu must be positive, got mu={mu!r}")
         if not lmbda + mu > 0:
             raise ValueError(f"Lame coefficients need lambda + mu > 0, got lambda={lmbda!r}")

@@ -37,6 +37,7 @@ from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
 from .solver import SNESSolver
 from .stepper import (
+    check_initial_gap,
     checkpoint_description,
     initial_acceleration,
     interpolate_initial,
@@ -217,6 +218,7 @@ class MixedStepper:
         problem = self.problem
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
+        check_initial_gap(self._penetration.max(), problem.mesh)
         fdim = problem.mesh.topology.dim - 1
         V = problem.V
         bc_dofs = [

@@ -185,6 +185,12 @@ class ContactProblem:
     def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
         self.facets(tag)
+        point = getattr(obstacle, "point", None)  # a plane: of the mesh's dimension
+        if point is not None and len(point) != self.gdim:
+            raise ValueError(
+                f"obstacle point {list(point)} has {len(point)} coordinates, the mesh has "
+                f"{self.gdim}"
+            )
         law = PenaltyContact if self.method == "penalty" else NitscheContact
         contact = law(
             obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction

@@ -45,6 +45,8 @@ class PlaneObstacle(Obstacle):
 
     def __init__(self, point: Sequence[float], normal: Sequence[float]):
         self.point = np.asarray(point, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(self.point)):
+            raise ValueError(f"obstacle point must be finite, got {self.point.tolist()}")
         normal = np.asarray(normal, dtype=float).reshape(-1)
         length = float(np.linalg.norm(normal))
         if not np.isfinite(length) or length == 0.0:

@@ -34,6 +34,8 @@ __all__ = [
 
 #: Contact methods: Nitsche, penalty, and the mixed method (a Lagrange multiplier, CN only).
 CONTACT_METHODS = ("nitsche", "penalty", "mixed")
+#: The most steps a run may make: more is a mistake in dt or t_end, not a run.
+MAX_STEPS = 10_000_000
 #: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
 MASS_MATRICES = ("consistent", "lumped", "redistributed")
 
@@ -49,12 +51,16 @@ class ParameterError(ValueError):
         self.name = name
         self.value = value
         self.requirement = requirement
+        #: Whether the label is the error's own words (not ``name=value``).
+        self.explicit = label is not None
         self.label = label if label is not None else f"{name}={value!r}"
         super().__init__(f"{self.label}: {requirement}")
 
     def named(self, label: str) -> ParameterError:
         """The same error with ``label`` (e.g. ``"--gamma0 0"``) naming the value."""
-        return ParameterError(self.name, self.value, self.requirement, label)
+        error = ParameterError(self.name, self.value, self.requirement, label)
+        error.explicit = self.explicit
+        return error
 
 
 def require(condition: bool, name: str, value, requirement: str) -> None:
@@ -89,6 +95,13 @@ class TimeStepping:
             "t_end",
             self.t_end,
             f"the final time must be finite and at least one time step (dt={self.dt!r})",
+        )
+        steps = self.t_end / self.dt
+        require(
+            steps <= MAX_STEPS,
+            "t_end",
+            self.t_end,
+            f"t_end / dt = {steps:.3g} steps, more than {MAX_STEPS:.0e}: check dt={self.dt!r}",
         )
 
     @property

@@ -33,6 +33,7 @@ __all__ = [
     "build_disk_model",
     "disk_mesh",
     "gmsh_session",
+    "check_body_mesh",
     "msh_command",
     "write_msh",
 ]
@@ -69,12 +70,23 @@ def gmsh_session():
         gmsh.finalize()
 
 
-def _check(mesh_size: float, order: int, radius: float) -> None:
-    """Reject sizes and orders gmsh would silently misread."""
+#: The most cells a generated body may have: more is a mistake in mesh_size, not a mesh.
+MAX_CELLS = 50_000_000
+#: Cells of the ball (3D) and the disk (2D) per (radius / mesh_size)^dim, measured.
+_CELLS_PER_SIZE = {3: 31.0, 2: 10.0}
+
+
+def check_body_mesh(mesh_size: float, order: int, radius: float, dim: int = 3) -> None:
+    """Reject sizes and orders gmsh would silently misread, and meshes too large to make."""
     if not (math.isfinite(radius) and radius > 0.0):
         raise ValueError(f"radius must be a positive number, got {radius!r}")
     if not (math.isfinite(mesh_size) and 0.0 < mesh_size <= 2.0 * radius):
         raise ValueError(f"mesh_size must lie in (0, 2 radius = {2 * radius:g}], got {mesh_size!r}")
+    cells = _CELLS_PER_SIZE[dim] * (radius / mesh_size) ** dim
+    if cells > MAX_CELLS:
+        raise ValueError(
+            f"mesh_size={mesh_size!r} would make about {cells:.2g} cells, more than {MAX_CELLS:.0e}"
+        )
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
 
@@ -119,7 +131,7 @@ def build_ball_model(
     """
     import gmsh
 
-    _check(mesh_size, order, radius)
+    check_body_mesh(mesh_size, order, radius)
     cx, cy, cz = (float(c) for c in center)
     gmsh.model.add("ball")
     occ = gmsh.model.occ
@@ -172,7 +184,7 @@ def build_disk_model(
     """
     import gmsh
 
-    _check(mesh_size, order, radius)
+    check_body_mesh(mesh_size, order, radius, dim=2)
     cx, cy = (float(c) for c in center)
     gmsh.model.add("disk")
     occ = gmsh.model.occ

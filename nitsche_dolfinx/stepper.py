@@ -18,19 +18,21 @@ from typing import Any, Protocol
 import numpy as np
 import ufl
 from dolfinx import fem
+from mpi4py import MPI
 
 from . import compat
 from .diagnostics import Diagnostics
 from .friction import FrictionOutput, GuardedNewton
 from .material import von_mises
 from .model import ContactProblem, as_array
-from .parameters import ParameterError, TimeStepping
+from .parameters import ParameterError, TimeStepping, require
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
 
 __all__ = [
     "NitscheStepper",
     "Stepper",
+    "check_initial_gap",
     "initial_acceleration",
     "interpolate_initial",
     "massless_velocity",
@@ -85,6 +87,24 @@ def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
         array = as_array(value, (gdim,), "initial value")
         target.interpolate(lambda x: np.tile(array[:, None], (1, x.shape[1])))
     target.x.scatter_forward()
+    finite = target.function_space.mesh.comm.allreduce(
+        bool(np.all(np.isfinite(target.x.array))), op=MPI.LAND
+    )
+    require(finite, f"initial {target.name}", "NaN or inf", "the initial values must be finite")
+
+
+def check_initial_gap(penetration: float, mesh) -> None:
+    """Refuse a body that starts inside an obstacle: ``penetration`` is the largest
+    u_n - g on Gamma_C at t = 0, allowed up to round-off of the mesh's extent."""
+    x = mesh.geometry.x
+    extent = mesh.comm.allreduce(float(np.abs(x).max(initial=0.0)), op=MPI.MAX)
+    if penetration > 1e-8 * max(extent, 1e-300):
+        raise ParameterError(
+            "initial_displacement",
+            penetration,
+            "it must start outside (u_n <= g on Gamma_C)",
+            label=f"initial displacement: the body starts {penetration:.3g} inside an obstacle",
+        )
 
 
 def initial_acceleration(
@@ -227,6 +247,7 @@ class NitscheStepper:
         interpolate_initial(self.u, problem.initial_displacement, gdim)
         interpolate_initial(self.v, problem.initial_velocity, gdim)
         self._set_dirichlet(self.u.x.array, 0.0)
+        check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         problem.set_time(0.0)
         initial_acceleration(
             problem,

@@ -97,7 +97,7 @@ def test_restart_without_checkpoint_is_named(tmp_path):
 @pytest.mark.parametrize(
     "replace, named",
     [
-        ({"rho = 1.0": "rho = -1.0"}, "density rho must be positive, got rho=-1.0"),
+        ({"rho = 1.0": "rho = -1.0"}, "density rho must be positive and finite, got rho=-1.0"),
         ({"nu = 0.3": "nu = 0.5"}, "Poisson's ratio nu must lie in (-1, 1/2), got nu=0.5"),
         ({"nu = 0.3": "nu = -1.2"}, "got nu=-1.2"),
         ({'name = "hybrid"': 'name = "leapfrog"'}, "[scheme] name = 'leapfrog': unknown scheme"),

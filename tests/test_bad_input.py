@@ -1,0 +1,177 @@
+"""Bad input, refused before computing with one line naming the value and where it came from.
+
+One table per entry point: the Python API (a ParameterError or ValueError naming the
+value), the TOML configuration and the command line (exit status 2, the table or flag
+and the value on stderr, no traceback, nothing computed), and the demos' flags.
+"""
+
+import math
+import os
+
+import pytest
+from runs import REPO, assert_one_line_error, ring_config, run
+
+from nitsche_dolfinx import (
+    ContactProblem,
+    HybridScheme,
+    Material,
+    PlaneObstacle,
+    Simulation,
+    make_scheme,
+)
+from nitsche_dolfinx.cases import bar_problem
+from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
+from nitsche_dolfinx.shapes import check_body_mesh
+
+
+def bar(**kwargs):
+    return bar_problem(nx=10, **kwargs)
+
+
+def ring(t_end=0.02, **problem):
+    """The ring of the README, short."""
+    from nitsche_dolfinx import load_mesh
+
+    mesh, tags = load_mesh(os.path.join(REPO, "meshes", "ring_2d.msh"))
+    ring = ContactProblem(mesh, tags, Material(E=1000.0, nu=0.3), gamma0=1e-6, **problem)
+    ring.add_obstacle(PlaneObstacle([0.0, 0.0], [0.0, 1.0]), 1)
+    return ring
+
+
+def shifted_ring():
+    problem = ring()
+    problem.set_initial_conditions(displacement=[0.0, -0.4])  # 0.4 into the ground
+    return Simulation(problem, HybridScheme(), dt=0.005, t_end=0.02)
+
+
+def nan_velocity():
+    problem = bar()
+    problem.set_initial_conditions(velocity=[math.nan])
+    return Simulation(problem, HybridScheme(), dt=0.1, t_end=0.2)
+
+
+API = {
+    "dt-zero": (lambda: TimeStepping(0.0, 1.0), "dt=0.0"),
+    "dt-nan": (lambda: TimeStepping(math.nan, 1.0), "dt=nan"),
+    "t-end-below-dt": (lambda: TimeStepping(0.1, 0.05), "t_end=0.05"),
+    "too-many-steps": (lambda: TimeStepping(1e-300, 1e300), "t_end=1e+300"),
+    "gamma0-zero": (lambda: bar(gamma0=0.0), "gamma0=0.0"),
+    "gamma0-inf": (lambda: bar(gamma0=math.inf), "gamma0=inf"),
+    "theta-nan": (lambda: bar(nitsche_theta=math.nan), "nitsche_theta=nan"),
+    "friction-negative": (lambda: ring(friction=-0.2), "friction=-0.2"),
+    "method-unknown": (lambda: bar(method="lagrange"), "method='lagrange'"),
+    "mass-unknown": (lambda: bar(mass="heavy"), "mass='heavy'"),
+    "degree-3": (lambda: bar(degree=3), "degree=3"),
+    "lumped-p2": (lambda: bar(degree=2, mass="lumped"), "mass='lumped'"),
+    "mixed-with-friction": (lambda: ring(method="mixed", friction=0.1), "friction=0.1"),
+    "E-inf": (lambda: Material(E=math.inf, nu=0.3), "E=inf"),
+    "E-negative": (lambda: Material(E=-1.0, nu=0.3), "E=-1.0"),
+    "nu-half": (lambda: Material(E=1.0, nu=0.5), "nu=0.5"),
+    "rho-nan": (lambda: Material(E=1.0, nu=0.3, rho=math.nan), "rho=nan"),
+    "lame-mu-zero": (lambda: Material.from_lame(1.0, 0.0), "mu=0.0"),
+    "theta-above-1": (lambda: make_scheme("theta", theta=1.5), "theta=1.5"),
+    "newmark-beta": (lambda: make_scheme("newmark", beta=0.7), "beta=0.7"),
+    "newmark-gamma": (lambda: make_scheme("newmark", gamma=-0.1), "gamma=-0.1"),
+    "scheme-unknown": (lambda: make_scheme("leapfrog"), "scheme='leapfrog'"),
+    "output-negative": (lambda: OutputParameters(output_every=-1), "output_every=-1"),
+    "checkpoint-float": (lambda: OutputParameters(checkpoint_every=0.5), "checkpoint_every=0.5"),
+    "obstacle-normal-zero": (lambda: PlaneObstacle([0.0], [0.0]), "[0.0]"),
+    "obstacle-point-nan": (lambda: PlaneObstacle([math.nan], [1.0]), "[nan]"),
+    "obstacle-wrong-dimension": (
+        lambda: ring().add_obstacle(PlaneObstacle([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 1),
+        "3 coordinates, the mesh has 2",
+    ),
+    "absent-tag": (lambda: bar().add_dirichlet(42, 0.0), "facet tag 42"),
+    "dirichlet-wrong-shape": (lambda: bar().add_dirichlet(2, [0.0, 0.0]), "[0.0, 0.0]"),
+    "mixed-with-hybrid": (
+        lambda: Simulation(bar(method="mixed"), HybridScheme(), dt=0.1, t_end=1.0),
+        "Crank-Nicolson only",
+    ),
+    "redistributed-with-hybrid": (
+        lambda: Simulation(bar(mass="redistributed"), HybridScheme(), dt=0.1, t_end=1.0),
+        "mass='redistributed'",
+    ),
+    "linear-solver-unknown": (
+        lambda: Simulation(bar(), HybridScheme(), dt=0.1, t_end=1.0, linear_solver="qr"),
+        "linear_solver='qr'",
+    ),
+    "initial-velocity-nan": (nan_velocity, "initial velocity"),
+    "starts-inside-obstacle": (shifted_ring, "inside an obstacle"),
+    "mesh-size-tiny": (lambda: check_body_mesh(1e-6, 2, 20.0), "mesh_size=1e-06"),
+    "mesh-size-too-large": (lambda: check_body_mesh(50.0, 2, 20.0), "got 50.0"),
+}
+
+
+@pytest.mark.parametrize("name", list(API))
+def test_api_refuses_bad_value(name):
+    make, named = API[name]
+    with pytest.raises(ValueError) as caught:
+        make()
+    assert named in str(caught.value)
+    assert "\n" not in str(caught.value)
+
+
+# -- the TOML configuration through the command line ----------------------------------------
+
+TOML = {
+    "E-inf": ({"E = 1000.0": "E = inf"}, "E=inf"),
+    "E-and-lame": ({"rho = 1.0": "rho = 1.0\nlmbda = 3.0"}, "gives E and nu with lmbda"),
+    "petsc-subtable": (
+        {"[output]": "[petsc.snes]\nrtol = 1e-8\n\n[output]"},
+        "[petsc] snes must be a string",
+    ),
+    "theta-for-hybrid": (
+        {"t_end = 1.0": "t_end = 1.0\ntheta = 0.5"},
+        "[scheme] theta = 0.5 is not a parameter of the 'hybrid' scheme",
+    ),
+    "obstacle-3d-point": (
+        {"point = [0.0, 0.0]": "point = [0.0, 0.0, 0.0]"},
+        "[[obstacle]] #1 obstacle point [0.0, 0.0, 0.0]",
+    ),
+    "nan-velocity": (
+        {"velocity = [0.0, -1.0]": "velocity = [nan, -1.0]"},
+        "[initial] velocity = 'NaN or inf'",
+    ),
+    "inside-obstacle": (
+        {"point = [0.0, 0.0]": "point = [0.0, 0.5]"},
+        "[initial] initial displacement: the body starts 0.4 inside an obstacle",
+    ),
+    "too-many-steps": (
+        {"dt = 0.005": "dt = 1e-300", "t_end = 1.0": "t_end = 1e300"},
+        "[scheme] t_end = 1e+300",
+    ),
+    "gamma0-zero": ({"gamma0 = 1e-6": "gamma0 = 0.0"}, "[nitsche] gamma0 = 0.0"),
+    "degree-3": ({"degree = 1": "degree = 3"}, "[mesh] degree = 3"),
+    "output-every-negative": ({"every = 10": "every = -5"}, "[output] every = -5"),
+}
+
+
+@pytest.mark.parametrize("name", list(TOML))
+def test_configuration_refuses_bad_value(tmp_path, name):
+    replace, named = TOML[name]
+    config = ring_config(str(tmp_path), replace, t_end=1.0)
+    out = tmp_path / "out"
+    result = run("-m", "nitsche_dolfinx", "run", config, "--out", str(out))
+    assert_one_line_error(result, named)
+    assert not (out / "history.csv").exists()
+
+
+# -- the demos' flags --------------------------------------------------------------------
+
+FLAGS = {
+    "disk-mesh-size-tiny": (["demos/disk_2d.py", "--mesh-size", "1e-6"], "would make about"),
+    "disk-t-end-below-dt": (["demos/disk_2d.py", "--t-end", "0.05"], "--t-end 0.05"),
+    "disk-mu-negative": (["demos/disk_2d.py", "--mu", "-1"], "--mu -1"),
+    "bar-nx-zero": (["demos/bar_1d.py", "--nx", "0"], "--nx 0"),
+    "block-mu-negative": (["demos/friction_block_2d.py", "--mu", "-0.5"], "--mu -0.5"),
+    "ring-dt-zero": (["demos/ring_2d.py", "--dt", "0"], "--dt 0"),
+}
+
+
+@pytest.mark.parametrize("name", list(FLAGS))
+def test_demo_refuses_bad_flag(tmp_path, name):
+    flags, named = FLAGS[name]
+    out = tmp_path / "out"
+    result = run(*flags, "--out", str(out))
+    assert_one_line_error(result, named)
+    assert not (out / "history.csv").exists()
