@@ -188,36 +188,41 @@ class GuardedNewton:
         self.reference.x.array[:] = self.w.x.array
         return solver.residual_norm(new_coefficients)
 
+    def coulomb_scale(self, solver: SNESSolver) -> float:
+        """The scale of Coulomb's equation at the current ``w`` (the reference is moved
+        to ``w``): :meth:`~nitsche_dolfinx.solver.SNESSolver.equation_scale`."""
+        self.reference.x.array[:] = self.w.x.array
+        return solver.equation_scale()
+
     def solve(
         self, solver: SNESSolver, first_reference: np.ndarray, tolerance: float, updates: int
     ) -> int:
         """Solve from the current ``w`` with the reference ``first_reference`` (an array
         of the unknown), moving the reference to each guarded solution until the guarded
-        law is Coulomb's (at most ``updates`` times). The SNES residual tolerance is the
-        absolute ``tolerance``. Returns the Newton iterations of all the solves."""
-        solver.snes.setTolerances(rtol=0.0, atol=tolerance)
+        law is Coulomb's (at most ``updates`` times). Every solve has the absolute
+        residual tolerance ``tolerance``. Returns the Newton iterations of all the solves."""
         self.reference.x.array[:] = first_reference
         spent = 0
         for _ in range(updates + 1):
-            spent += self._solve_once(solver)
+            spent += self._solve_once(solver, tolerance)
             if assemble_global(self.activity, self.comm) == 0.0:
                 return spent
             self.reference.x.array[:] = self.w.x.array
         raise SolverError(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, spent, float("nan"))
 
-    def _solve_once(self, solver: SNESSolver) -> int:
+    def _solve_once(self, solver: SNESSolver, tolerance: float) -> int:
         """One solve with a fixed reference: full Newton steps and, should they cycle
         among the pieces of the law, again from the same start with the l2 line search
         (measured: the block just stopped, its edges still slipping)."""
         start = self.w.x.array.copy()
         try:
-            return solver.solve()
+            return solver.solve(tolerance)
         except SolverError as error:
             spent = error.iterations
         self.w.x.array[:] = start
         with solver.line_search("l2"):
             try:
-                return spent + solver.solve()
+                return spent + solver.solve(tolerance)
             except SolverError as error:
                 error.iterations += spent
                 raise

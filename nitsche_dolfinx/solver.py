@@ -30,11 +30,14 @@ __all__ = [
 
 #: Newton with a full step and a direct solve: the semismooth Newton of the talk. The LU
 #: factorisation is MUMPS's where PETSc has it (it is parallel, and uses the BLAS).
+#: ``snes_rtol`` is relative to the scale of the step's equation, not to the first
+#: residual alone (see :meth:`SNESSolver.solve`); ``snes_atol`` is not set: an absolute
+#: tolerance has units, and one that suits a problem in scaled units is below the
+#: round-off of the same problem in SI units (a user's ``snes_atol`` is still obeyed).
 DEFAULT_PETSC_OPTIONS: dict[str, Any] = {
     "snes_type": "newtonls",
     "snes_linesearch_type": "basic",
     "snes_rtol": 1.0e-10,
-    "snes_atol": 1.0e-12,
     "snes_stol": 0.0,
     "snes_max_it": 50,
     "ksp_type": "preonly",
@@ -47,6 +50,7 @@ _REASONS = {
     if not name.startswith("_") and isinstance(value, int)
 }
 _prefix_counter = itertools.count()
+_SMALLEST = float(np.finfo(float).tiny)  # an absolute tolerance that 0 passes and no norm
 
 
 class SolverError(RuntimeError):
@@ -211,6 +215,11 @@ class SNESSolver:
         V = u.function_space
         self._b = compat.create_vector(V)
         self._x = compat.create_vector(V)
+        self._zero = compat.create_vector(V)
+        # the state of the convergence test of the current solve (see solve())
+        self._atol, self._roundoff_bound, self._full_steps = 0.0, 0.0, True
+        self._first_norm = 0.0
+        self._jacobian_changes: list[bool] = []
         self._split = (
             AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
             if affine_cell_terms
@@ -229,6 +238,9 @@ class SNESSolver:
         #: Skip the facet (contact) Jacobian while ``facet_activity`` is zero everywhere;
         #: False assembles it at every evaluation (the reference the skip is checked by).
         self.skip_inactive_facets = True
+        #: How far above round-off an exact iterate's residual may be, relative to the
+        #: scale of the equation (see :meth:`solve`).
+        self.roundoff_bound = 1.0e-6
 
         user_options = dict(petsc_options or {})
         comm = V.mesh.comm
@@ -254,6 +266,13 @@ class SNESSolver:
         self._user_option_names = [
             name for name in inserted if name[len(self.options_prefix) :] in user_options
         ]
+        #: An absolute tolerance the user set (``snes_atol``), obeyed as given; None: the
+        #: tolerance follows the scale of each solve's equation (see :meth:`solve`).
+        self.user_atol = None
+        if PETSc.Options().hasName(f"{self.options_prefix}snes_atol"):
+            self.user_atol = PETSc.Options().getReal(f"{self.options_prefix}snes_atol")
+        name = f"{self.options_prefix}snes_linesearch_type"
+        self._line_search_type = PETSc.Options().getString(name, "basic")
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -261,6 +280,7 @@ class SNESSolver:
             for name in inserted:
                 if name not in self._user_option_names:
                     PETSc.Options().delValue(name)
+        self.snes.setConvergenceTest(self._converged)
 
     def _new_matrix(self, symmetric: bool) -> PETSc.Mat:
         """A matrix with the sparsity of J: with the split, a copy of the structure of
@@ -311,8 +331,42 @@ class SNESSolver:
             add_diagonal_product(b, self._D, x)
         compat.set_bc(b, self.bcs, x, -1.0)
 
+    def _converged(self, snes, iteration: int, norms) -> int:
+        """SNES's convergence test: ||F|| <= the solve's absolute tolerance, or ``snes_rtol``
+        times the first residual, or an iterate exact up to round-off (see :meth:`solve`)."""
+        fnorm = norms[2]
+        reasons = PETSc.SNES.ConvergedReason
+        if not np.isfinite(fnorm):
+            return reasons.DIVERGED_FNORM_NAN
+        if iteration == 0:  # one Newton step at least: the guess is not the solution
+            self._first_norm = fnorm
+            return reasons.CONVERGED_FNORM_ABS if fnorm == 0.0 else reasons.ITERATING
+        if fnorm <= self._atol:
+            return reasons.CONVERGED_FNORM_ABS
+        if fnorm <= snes.getTolerances()[0] * self._first_norm:
+            return reasons.CONVERGED_FNORM_RELATIVE
+        if iteration >= 2 and self._exact_before(iteration) and fnorm <= self._roundoff_bound:
+            return reasons.CONVERGED_SNORM_RELATIVE
+        if iteration >= snes.getTolerances()[3]:
+            return reasons.DIVERGED_MAX_IT
+        return reasons.ITERATING
+
+    def _exact_before(self, iteration: int) -> bool:
+        """Whether iterate ``iteration - 1`` solved the step's equation exactly (up to
+        round-off): it came from a full Newton step with the Jacobian that it has itself.
+        The bulk is affine and the contact terms piecewise affine, so with the same
+        Jacobian (the same contact status at every quadrature point) at both ends of a
+        full step, that step landed on the solution."""
+        changes = self._jacobian_changes
+        return (
+            iteration - 1 < len(changes)
+            and not changes[iteration - 1]
+            and self._full_steps
+        )
+
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
+        self._jacobian_changes.append(True)
         if self._split is None:  # the whole Jacobian
             A.zeroEntries()
             self.J_forms.assemble_matrix(A, self.bcs)
@@ -327,6 +381,7 @@ class SNESSolver:
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
             self._split.sum_into(A)
         else:
+            self._jacobian_changes[-1] = False
             return  # A unchanged: its PETSc state stays, so the factorisation is reused
         self.jacobian_updates += 1
         if self._P is None:
@@ -340,8 +395,21 @@ class SNESSolver:
         else:
             ksp.setType("gmres")  # P lags behind A: let GMRES make up the difference
 
-    def solve(self) -> int:
+    def solve(self, atol: float | None = None) -> int:
         """Run SNES from the current value of ``u``.
+
+        The solve has converged when ||F|| <= ``atol``. By default ``atol`` is ``snes_rtol``
+        times the scale of the step's equation, the larger of ||F(0)|| and ||F(u_0)||
+        (u_0 the initial guess; F(0) holds the loads and the forces of the last state):
+        both carry the units of F, so the same physical problem in other units takes the
+        same iterations. It has also converged when an iterate solved the equation
+        exactly up to round-off (see :meth:`_exact_before`) and ||F|| is at most
+        :attr:`roundoff_bound` times the scale: at rest, F(0) and F(u_0) are both
+        round-off, and no residual tolerance is reachable.
+
+        Args:
+            atol: The absolute tolerance of this solve instead (e.g. one shared by
+                several solves of a step); a user's ``snes_atol`` wins over both.
 
         Returns:
             The number of Newton iterations.
@@ -353,6 +421,15 @@ class SNESSolver:
         u_vec = compat.petsc_vector(self.u)
         if self._split is not None:
             self._split.update_cell_residual(self.u)
+        scale = self.equation_scale(new_coefficients=False)
+        if self.user_atol is not None:
+            atol = self.user_atol
+        elif atol is None:
+            atol = self.snes.getTolerances()[0] * scale
+        self._atol = max(atol, _SMALLEST)
+        self._roundoff_bound = self.roundoff_bound * scale
+        self._full_steps = self._line_search_type == "basic"
+        self._jacobian_changes = []
         u_vec.copy(self._x)
         self.snes.solve(None, self._x)
         reason = self.snes.getConvergedReason()
@@ -371,13 +448,31 @@ class SNESSolver:
         previous = database.getString(name) if database.hasName(name) else None
         database[name] = kind
         self.snes.setFromOptions()
+        before, self._line_search_type = self._line_search_type, kind
         try:
             yield
         finally:
+            self._line_search_type = before
             database[name] = previous or DEFAULT_PETSC_OPTIONS["snes_linesearch_type"]
             self.snes.setFromOptions()
             if previous is None:
                 database.delValue(name)
+
+    def equation_scale(self, new_coefficients: bool = True) -> float:
+        """The scale of the equation at the current coefficients: the larger of ||F(0)||
+        and ||F(u)|| at the current ``u``, which is left as it was (collective)."""
+        if self._split is not None and new_coefficients:
+            self._split.update_cell_residual(self.u)
+        u_vec = compat.petsc_vector(self.u)
+        u_vec.copy(self._x)
+        self._assemble_residual(self.snes, self._x, self._b)
+        at_guess = self._b.norm()
+        self._zero.set(0.0)
+        self._assemble_residual(self.snes, self._zero, self._b)
+        at_zero = self._b.norm()
+        self._x.copy(u_vec)
+        self.u.x.scatter_forward()
+        return max(at_guess, at_zero)
 
     def residual_norm(self, new_coefficients: bool = True) -> float:
         """The Euclidean norm of the residual at the current value of ``u`` (collective).
@@ -401,7 +496,7 @@ class SNESSolver:
 
     def destroy(self) -> None:
         """Free the PETSc objects (collective)."""
-        objects = [self.snes, self._A, self._b, self._x]
+        objects = [self.snes, self._A, self._b, self._x, self._zero]
         if self._P is not None:
             objects.append(self._P)
         if self._split is not None:

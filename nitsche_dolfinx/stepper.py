@@ -198,8 +198,6 @@ class NitscheStepper:
         self.solver = self._step_solver(
             dt_c, bcs, petsc_options, reuse_jacobian, preconditioner_lag, guard_friction
         )
-        # the guarded solves set their own absolute tolerance from these at every step
-        self._tolerances = self.solver.snes.getTolerances()[:2]
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
         self._energy_before = None  # E_Theta^n of the last step
@@ -314,8 +312,8 @@ class NitscheStepper:
         if self._guarded is None:
             return self.solver.solve()
         guarded, solver = self._guarded, self.solver
-        rtol, atol = self._tolerances
-        tolerance = max(atol, rtol * guarded.coulomb_residual(solver))
+        # every guarded solve of the step has the tolerance of Coulomb's equation
+        tolerance = solver.snes.getTolerances()[0] * guarded.coulomb_scale(solver)
         try:
             return guarded.solve(solver, self._coasting_unknown(), tolerance, self.guard_updates)
         except SolverError as error:
