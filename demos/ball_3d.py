@@ -215,9 +215,11 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
 
 def print_summary(runs: list, args: argparse.Namespace) -> None:
     history, main = runs[0]
+    cut = history.cut_steps()
+    steps = f"{len(history) - 1} steps" + (f" ({cut} of them cut)" if cut else "")
     print(
-        f"{main['dofs']} DOFs (P{args.degree}, h = {args.mesh_size:g}), {len(history) - 1} "
-        f"steps of tau = {args.dt:g} to T = {args.t_end:g}, Theta = {args.nitsche_theta:g}, "
+        f"{main['dofs']} DOFs (P{args.degree}, h = {args.mesh_size:g}), {steps} "
+        f"of tau = {args.dt:g} to T = {args.t_end:g}, Theta = {args.nitsche_theta:g}, "
         f"gamma0 = {args.gamma0:g}, linear solver {main['linear_solver']}"
     )
     print(

@@ -76,23 +76,14 @@ class AffineCellSplit:
         self.F_cell = Forms(F_cell)
         self.F_facet = Forms(F_facet) if F_facet is not None else None
         self.J_facet = Forms(J_facet) if J_facet is not None else None
-        J_cell = Forms(J_cell)
-        self.K = J_cell.create_matrix()
-        J_cell.assemble_matrix(self.K)
-        self.K.assemble()
+        self._J_cell, self._D, self._D_bc = Forms(J_cell), D, D_bc
+        self.K = self._J_cell.create_matrix()
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
-        # a new matrix, so J is assembled once to set them and then zeroed
+        # a new matrix, so J is assembled once to set them (and zeroed by update_K)
         self.K_bc = J_forms.create_matrix()
         J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
-        self.K_bc.zeroEntries()
-        J_cell.assemble_matrix(self.K_bc, bcs, 1.0)
-        self.K_bc.assemble()
-        if D is not None:  # a diagonal (lumped) mass belongs to the constant cell terms
-            self.K.setDiagonal(D, addv=PETSc.InsertMode.ADD)
-            self.K.assemble()
-            self.K_bc.setDiagonal(D_bc, addv=PETSc.InsertMode.ADD)
-            self.K_bc.assemble()
+        self.update_K()
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
         self.B = self.K_bc.duplicate() if self.J_facet is not None else None  # zero values
@@ -103,6 +94,17 @@ class AffineCellSplit:
             self._activity = compat.create_vector(activity.arguments()[0].ufl_function_space())
         self._inactive = False  # whether B_last was assembled with the facet terms inactive
         self.assemblies = 0  # of the facet Jacobian
+
+    def update_K(self) -> None:
+        """Assemble K and K_bc for the current coefficients (the constant cell terms:
+        again only when a constant in them changes, such as the time step)."""
+        for matrix, bcs, D in ((self.K, [], self._D), (self.K_bc, self.bcs, self._D_bc)):
+            matrix.zeroEntries()
+            self._J_cell.assemble_matrix(matrix, bcs, 1.0)
+            matrix.assemble()
+            if D is not None:  # a diagonal (lumped) mass belongs to the constant cell terms
+                matrix.setDiagonal(D, addv=PETSc.InsertMode.ADD)
+                matrix.assemble()
 
     def update_cell_residual(self, u: fem.Function) -> None:
         """F_cell(0) for the current coefficients (assembled with u = 0; u is restored)."""

@@ -21,8 +21,9 @@ not by their place in the arrays: the partition of a mesh among the ranks is not
 the same from one ``mpirun`` to the next (measured with dolfinx 0.5 on the disk),
 so a checkpoint reloads on any partition of the same mesh, and on any number
 of ranks. Every rank reads all the files (fine for the meshes of this project;
-the memory of one rank bounds the size). Another mesh, space, scheme, time step
-or Nitsche parameter is refused with a message naming the difference.
+the memory of one rank bounds the size). Another mesh, space, scheme, method or
+Nitsche variant is refused with a message naming the difference; the time step
+and gamma0 may change (:data:`CHANGEABLE`), and so may the solver options.
 
 While a run is going on, :class:`StopSignals` turns SIGINT and SIGTERM into a
 request to stop that the ranks agree on at the end of the step (an
@@ -37,7 +38,7 @@ import os
 import signal
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from mpi4py import MPI
@@ -60,6 +61,10 @@ __all__ = [
     "write_checkpoint",
 ]
 
+#: What a restart may change: the time step (a new grid of steps from the restart time,
+#: see :mod:`~nitsche_dolfinx.timelevels`) and the Nitsche parameter.
+CHANGEABLE = ("dt", "gamma0", "gamma0_scaling")
+
 #: The metadata file of a checkpoint folder; its presence makes the folder a checkpoint.
 CHECKPOINT_FILE = "checkpoint.json"
 #: How long a failing rank waits for the other ranks to fail too (see :func:`all_ranks_reach`).
@@ -74,11 +79,13 @@ class CheckpointError(ValueError):
 
 @dataclass(frozen=True)
 class SavedState:
-    """Where and which state a checkpoint holds."""
+    """Where and which state a checkpoint holds; ``changes`` maps what a restart changed
+    (a key of :data:`CHANGEABLE`) to its saved and its new value."""
 
     folder: str
     step: int
     t: float
+    changes: dict = field(default_factory=dict)
 
     def __str__(self) -> str:
         return f"the state at step {self.step} (t = {self.t:.6g}) is saved in {self.folder}"
@@ -346,6 +353,7 @@ def save_state(stepper, folder: str, columns=None) -> SavedState:
             arrays[key] = node_coordinates(V)[:owned]
     metadata = {
         **stepper.describe(),
+        **stepper.levels(),
         "newton_iterations": int(stepper.newton_iterations),
         "columns": list(columns) if columns is not None else None,
     }
@@ -364,19 +372,24 @@ def load_state(stepper, folder: str, columns=None) -> SavedState:
             or set of history columns, or lies past t_end.
     """
     metadata, arrays = read_checkpoint(folder, stepper.comm)
+    changes = {}
     for key, value in stepper.describe().items():
-        if metadata.get(key) != value:
-            raise CheckpointError(
-                f"checkpoint {folder!r} does not fit this run: its {key} is "
-                f"{metadata.get(key)!r}, this run's is {value!r}"
-            )
+        if metadata.get(key) == value:
+            continue
+        if key in CHANGEABLE:
+            changes[key] = (metadata.get(key), value)
+            continue
+        raise CheckpointError(
+            f"checkpoint {folder!r} does not fit this run: its {key} is "
+            f"{metadata.get(key)!r}, this run's is {value!r}"
+        )
     saved_columns = metadata.get("columns")
     if columns is not None and saved_columns is not None and saved_columns != list(columns):
         raise CheckpointError(
             f"checkpoint {folder!r} was written by a run with the history columns "
             f"{','.join(saved_columns)}, this run writes {','.join(columns)}"
         )
-    if metadata["step"] > stepper.num_steps:
+    if metadata["t"] > stepper.t_end:
         raise CheckpointError(
             f"checkpoint {folder!r} is at t = {metadata['t']:.6g}, past t_end = {stepper.t_end:g}"
         )
@@ -387,10 +400,8 @@ def load_state(stepper, folder: str, columns=None) -> SavedState:
         index = _matching_nodes(stepper.comm, folder, arrays[key], function.function_space)
         bs = function.function_space.dofmap.index_map_bs
         function.x.array.reshape(-1, bs)[:] = arrays[name][index]
-    stepper.restore(
-        float(metadata["t"]), int(metadata["step"]), int(metadata.get("newton_iterations", 0))
-    )
-    return SavedState(str(folder), stepper.step_index, stepper.t)
+    stepper.restore(float(metadata["t"]), int(metadata["step"]), metadata)
+    return SavedState(str(folder), stepper.step_index, stepper.t, changes)
 
 
 def _matching_nodes(comm, folder, saved_points, V) -> np.ndarray:

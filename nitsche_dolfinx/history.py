@@ -23,6 +23,7 @@ __all__ = [
     "FRICTION_HISTORY_COLUMNS",
     "HISTORY_COLUMNS",
     "STATE_COLUMNS",
+    "STEP_COLUMNS",
     "History",
 ]
 
@@ -37,8 +38,12 @@ STATE_COLUMNS = (
     "contact_area",
     "penetration_max",
 )
-#: Columns of ``history.csv`` for the 2D/3D demos (docs/method.md section 6).
-HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds")
+#: The steps: the size of the step that reached the level (0 at t = 0), and how many times
+#: it was halved from the nominal step (docs/method.md section 8).
+STEP_COLUMNS = ("dt", "step_cuts")
+#: Columns of ``history.csv`` for the 2D/3D demos (docs/method.md section 6): the
+#: listed ones of the output contract, then the steps.
+HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds", *STEP_COLUMNS)
 #: The energy balance of a step: D^n, the work of the friction term on the step's
 #: increment, and E_Theta^{n+1} - E_Theta^n + D^n (both 0 at t = 0).
 BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
@@ -104,6 +109,10 @@ class History:
         iterations = self["newton_iterations"][1:]
         return float(np.mean(iterations)) if iterations.size else 0.0
 
+    def cut_steps(self) -> int:
+        """How many steps were cut (halved at least once) to let Newton converge."""
+        return int(np.count_nonzero(self["step_cuts"] > 0)) if "step_cuts" in self else 0
+
     def contact_interval(self, column: str = "contact_force") -> tuple[float, float] | None:
         """The first and the last time level with a positive contact force, or None."""
         t, force = self["t"], self[column]
@@ -112,7 +121,8 @@ class History:
 
     def summary(self) -> dict[str, float]:
         """The figures every demo reports: drifts of E and E_Theta, the largest rise of
-        E_Theta, the mean Newton iterations and the contact interval (NaN: no contact)."""
+        E_Theta, the mean Newton iterations, the cut steps and the contact interval (NaN:
+        no contact)."""
         interval = self.contact_interval() if "contact_force" in self else None
         first, last = interval if interval is not None else (np.nan, np.nan)
         return {
@@ -120,6 +130,7 @@ class History:
             "energy_theta_drift": self.energy_drift("energy_theta"),
             "largest_rise": self.largest_rise(),
             "mean_newton_iterations": self.mean_newton_iterations(),
+            "cut_steps": self.cut_steps(),
             "first_contact": first,
             "last_contact": last,
         }

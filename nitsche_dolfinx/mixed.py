@@ -36,6 +36,7 @@ from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
 from .solver import SNESSolver
+from .timelevels import TimeLevels
 from .stepper import (
     check_initial_gap,
     checkpoint_description,
@@ -83,7 +84,7 @@ def _check_mixed(problem: ContactProblem, scheme) -> None:
         raise ValueError("the mixed method supports homogeneous Dirichlet values only")
 
 
-class MixedStepper:
+class MixedStepper(TimeLevels):
     """Crank-Nicolson steps of a :class:`~nitsche_dolfinx.model.ContactProblem` whose
     method is ``"mixed"``: contact by a Lagrange multiplier, one obstacle.
 
@@ -101,8 +102,7 @@ class MixedStepper:
     ):
         _check_mixed(problem, scheme)
         self.problem, self.scheme = problem, scheme
-        self.dt, self.t_end = time_stepping.dt, time_stepping.t_end
-        self.num_steps = time_stepping.num_steps
+        self._start_levels(time_stepping)
         self.comm = problem.mesh.comm
         self.contact, self.tag = problem.contacts[0], problem.contact_tags[0]
         V0, Q = self._spaces()
@@ -124,7 +124,7 @@ class MixedStepper:
         self._area = fem.form(ufl.conditional(ufl.lt(lam, 0.0), 1.0, 0.0) * contact.ds)
         self._penetration = Penetration(problem, self.u)
         self._massless = problem.massless_dofs()
-        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
+        self.newton_iterations, self.step_seconds = 0, 0.0
         self._initialize()
 
     def _spaces(self):
@@ -176,8 +176,8 @@ class MixedStepper:
         problem, contact = self.problem, self.contact
         w, lam = ufl.split(self.x)
         test_v, test_mu = ufl.TestFunctions(self.W)
-        dt_c = fem.Constant(problem.mesh, self.dt)
-        u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, dt_c)
+        self._dt = fem.Constant(problem.mesh, self.dt)  # the size of the step
+        u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, self._dt)
         # the Alart-Curnier parameter does not change the solution; h/E keeps the rows scaled
         r = problem.h / problem.material.E
         complementarity = (
@@ -249,23 +249,26 @@ class MixedStepper:
             "penetration_max": self._penetration.max(),
             "newton_iterations": self.newton_iterations,
             "step_seconds": self.step_seconds,
+            "dt": self.last_dt,
+            "step_cuts": self.step_cuts,
         }
         return values
 
-    def step(self) -> int:
-        """One Crank-Nicolson step; returns the Newton iterations."""
+    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
+        """One Crank-Nicolson step to ``t_new`` (default: the next nominal level); returns
+        the Newton iterations. If Newton fails, the state stays that of t^n."""
         start = time.perf_counter()
-        t_new = (self.step_index + 1) * self.dt
+        t_new, dt = self._step_to(t_new)
+        self._dt.value = dt  # no constant bulk Jacobian here: nothing to assemble again
         self.problem.set_time(t_new)
         self.x.x.array[self._w_index] = self.a.x.array  # guess: the last acceleration
-        iterations = self.solver.solve()
+        iterations = self.solver.solve_with_line_search()
         w = self.x.x.array[self._w_index]
-        u1, v1, a1 = self.scheme.kinematics(
-            self.u.x.array, self.v.x.array, self.a.x.array, w, self.dt
-        )
-        massless_velocity(self._massless, self.u.x.array, u1, v1, a1, self.dt)
+        u1, v1, a1 = self.scheme.kinematics(self.u.x.array, self.v.x.array, self.a.x.array, w, dt)
+        massless_velocity(self._massless, self.u.x.array, u1, v1, a1, dt)
         self.u.x.array[:], self.v.x.array[:], self.a.x.array[:] = u1, v1, a1
-        self.t, self.step_index, self.newton_iterations = t_new, self.step_index + 1, iterations
+        self._arrive(t_new, dt, cuts)
+        self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
 
@@ -299,9 +302,10 @@ class MixedStepper:
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
 
-    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         """Move to a loaded time level; the multiplier becomes the next step's guess."""
         self.x.x.array[self._lambda_index] = self.multiplier.x.array
-        self.t, self.step_index = t, step_index
-        self.newton_iterations, self.step_seconds = newton_iterations, 0.0
+        self._restore_levels(t, step_index, saved)
+        self.newton_iterations = int(saved.get("newton_iterations", 0))
+        self.step_seconds = 0.0
         self.problem.set_time(t)

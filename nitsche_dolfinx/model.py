@@ -30,7 +30,13 @@ from .friction import FRICTION_QUANTITIES, ContactTerms, GuardedFriction
 from .mass import lumped_mass, redistributed_mass
 from .material import Material, sigma
 from .meshes import cell_diameter
-from .parameters import CONTACT_METHODS, MASS_MATRICES, Discretisation, NitscheParameters
+from .parameters import (
+    CONTACT_METHODS,
+    MASS_MATRICES,
+    Discretisation,
+    NitscheParameters,
+    check_gamma0,
+)
 
 __all__ = ["CONTACT_METHODS", "MASS_MATRICES", "ContactProblem", "TimeDependentValue", "as_array"]
 
@@ -77,7 +83,8 @@ class ContactProblem:
         facet_tags: Facet tags naming the boundary parts used by the terms.
         material: The elastic material and its density.
         degree: Degree of the Lagrange displacement space (1 or 2).
-        gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact).
+        gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact), or
+            gamma0 h_T / E with ``gamma0_scaling="E"``.
         nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
         friction: Coulomb coefficient mu_f >= 0, or None (the default) for frictionless
             contact. With a coefficient, the frictional Nitsche term of docs/method.md section 2 is
@@ -96,6 +103,12 @@ class ContactProblem:
             the energies alike (so that the discrete energy identities hold to round-off,
             also on curved cells). Default: 2 * degree on affine meshes, 2 * degree + 2 on
             second-order geometries.
+        gamma0_scaling: ``"absolute"`` (the default, the paper's): gamma0 has the units of
+            1/stress, and a value that suits E = 1000 is far too soft at E = 2e11;
+            ``"E"``: gamma_h = gamma0 h_T / E, gamma0 without units, the same value for
+            any material and units (about 1e-3 suits P1 and P2; docs/method.md
+            section 10). gamma0 E (or gamma0) must lie in
+            :data:`~nitsche_dolfinx.parameters.GAMMA0_E_RANGE`.
 
     The parameters are checked by :class:`~nitsche_dolfinx.parameters.NitscheParameters`
     and :class:`~nitsche_dolfinx.parameters.Discretisation`.
@@ -115,8 +128,10 @@ class ContactProblem:
         quadrature_degree: int | None = None,
         method: str = "nitsche",
         mass: str = "consistent",
+        gamma0_scaling: str = "absolute",
     ):
-        nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method)
+        nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
+        check_gamma0(nitsche.gamma0, nitsche.gamma0_scaling, material.E)
         discretisation = Discretisation(int(degree), mass, quadrature_degree)
         self.mesh = mesh
         self.facet_tags = facet_tags
@@ -131,7 +146,11 @@ class ContactProblem:
         self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
         self.friction = None if friction is None else fem.Constant(mesh, float(friction))
         self.h = cell_diameter(mesh)
-        self.gamma_h = self.gamma0 * self.h
+        self.gamma0_scaling = nitsche.gamma0_scaling
+        if self.gamma0_scaling == "E":
+            self.gamma_h = self.gamma0 * self.h / material.E
+        else:
+            self.gamma_h = self.gamma0 * self.h
         if quadrature_degree is None:
             quadrature_degree = 2 * self.degree + 2 * (compat.geometry_degree(mesh) - 1)
         self.quadrature_degree = int(quadrature_degree)

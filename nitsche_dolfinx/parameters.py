@@ -16,24 +16,34 @@ works.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = [
     "CONTACT_METHODS",
+    "GAMMA0_SCALINGS",
     "MASS_MATRICES",
     "Discretisation",
     "NitscheParameters",
     "OutputParameters",
     "ParameterError",
     "TimeStepping",
+    "check_gamma0",
     "require",
     "require_choice",
 ]
 
 #: Contact methods: Nitsche, penalty, and the mixed method (a Lagrange multiplier, CN only).
 CONTACT_METHODS = ("nitsche", "penalty", "mixed")
+#: How gamma0 makes gamma_h: ``"absolute"``, gamma_h = gamma0 h (gamma0 in 1/stress, the
+#: paper's), or ``"E"``, gamma_h = gamma0 h / E (gamma0 without units).
+GAMMA0_SCALINGS = ("absolute", "E")
+#: The range of the dimensionless gamma0 E: beyond it the contact is so soft that the
+#: obstacle is hardly there (the contact stiffness 1/gamma_h a hundredth of the body's
+#: E/h), or so stiff that the linear solves lose every digit.
+GAMMA0_E_RANGE = (1e-12, 1e2)
 #: The most steps a run may make: more is a mistake in dt or t_end, not a run.
 MAX_STEPS = 10_000_000
 #: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
@@ -83,7 +93,8 @@ def require_choice(value, choices, name: str, what: str) -> None:
 
 @dataclass(frozen=True)
 class TimeStepping:
-    """The time step tau and the final time T: 0 < dt <= t_end, both finite."""
+    """The time step tau and the final time T: 0 < dt <= t_end, both finite. T is reached
+    exactly: when it is not a multiple of tau, the last step is shorter."""
 
     dt: float
     t_end: float
@@ -106,19 +117,21 @@ class TimeStepping:
 
     @property
     def num_steps(self) -> int:
-        """The number of steps, t_end / dt rounded to the nearest integer."""
-        return int(round(self.t_end / self.dt))
+        """The number of steps to t_end: t_end / dt rounded up (a shorter last step), but
+        for the round-off of t_end / dt (6 / 0.015 is 400 steps)."""
+        return max(1, math.ceil(self.t_end / self.dt - 1e-9))
 
 
 @dataclass(frozen=True)
 class NitscheParameters:
-    """The contact terms: gamma_h = gamma0 h_T, the variant Theta, Coulomb's mu_f and the
-    method (see docs/method.md section 2)."""
+    """The contact terms: gamma_h = gamma0 h_T (or gamma0 h_T / E, see ``gamma0_scaling``),
+    the variant Theta, Coulomb's mu_f and the method (see docs/method.md sections 2 and 10)."""
 
     gamma0: float = 1.0
     nitsche_theta: float = 1.0
     friction: float | None = None
     method: str = "nitsche"
+    gamma0_scaling: str = "absolute"
 
     def __post_init__(self):
         require(
@@ -127,6 +140,7 @@ class NitscheParameters:
             self.gamma0,
             "the Nitsche parameter must be positive",
         )
+        require_choice(self.gamma0_scaling, GAMMA0_SCALINGS, "gamma0_scaling", "scaling of gamma0")
         require(
             _finite(self.nitsche_theta),
             "nitsche_theta",
@@ -146,6 +160,23 @@ class NitscheParameters:
             self.friction,
             "the mixed method is frictionless",
         )
+
+
+def check_gamma0(gamma0: float, scaling: str, E: float) -> float:
+    """The dimensionless gamma0 E (``scaling`` ``"absolute"``) or gamma0 (``"E"``), checked
+    against :data:`GAMMA0_E_RANGE`; the Young modulus ``E`` is the body's."""
+    dimensionless = gamma0 * E if scaling == "absolute" else gamma0
+    low, high = GAMMA0_E_RANGE
+    in_words = f"gamma0 * E = {dimensionless:.3g}" if scaling == "absolute" else "gamma0"
+    require(
+        low <= dimensionless <= high,
+        "gamma0",
+        gamma0,
+        f"{in_words} is outside [{low:g}, {high:g}]: above, the contact is a hundred times "
+        f"softer than the body (the obstacle is hardly there); below, the linear solves lose "
+        f"every digit (about 1e-3 suits P1 and P2, docs/method.md section 10)",
+    )
+    return dimensionless
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,8 @@ import os
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from .checkpoint import (
     CheckpointError,
     RunInterrupted,
@@ -30,7 +32,7 @@ from .history import HISTORY_COLUMNS, History
 from .linear_solvers import linear_solver as linear_solver_preset
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
-from .parameters import OutputParameters, TimeStepping
+from .parameters import OutputParameters, TimeStepping, require
 from .schemes import TimeScheme
 from .solver import SolverError, rigid_body_modes
 from .stepper import NitscheStepper, Stepper
@@ -49,7 +51,8 @@ class Simulation:
         problem: The problem; its ``method`` chooses the stepper.
         scheme: The time scheme (the mixed method takes Crank-Nicolson only).
         dt: Time step tau (> 0).
-        t_end: Final time T (>= dt); the run makes round(T / tau) steps.
+        t_end: Final time T (>= dt), reached exactly: when T is not a multiple of tau,
+            the last step is shorter.
         petsc_options: PETSc options for the step's SNES
             (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
         progress: Print one line per step on rank 0.
@@ -67,6 +70,10 @@ class Simulation:
             ``"lu-lagged"``, ``"cg-gamg"``, ``"gmres-gamg"``); ``petsc_options`` win
             over its options, and it sets ``preconditioner_lag``. None: the solver's
             defaults.
+        max_step_cuts: In :meth:`run`, a step whose Newton solve fails (with full steps,
+            then with a line search) is replaced by two half steps, and those again,
+            down to tau / 2^max_step_cuts; then the run stops with the last converged
+            state saved (docs/method.md section 8). 0: no cutting.
 
     The state of the current time level is ``u``, ``v``, ``a``, ``t`` and
     ``step_index``; ``stepper`` is the object that makes the steps.
@@ -75,9 +82,10 @@ class Simulation:
     problem = _from_stepper("problem", "The problem.")
     scheme = _from_stepper("scheme", "The time scheme.")
     comm = _from_stepper("comm", "The communicator of the mesh.")
-    dt = _from_stepper("dt", "The time step tau.")
+    dt = _from_stepper("dt", "The (nominal) time step tau.")
     t_end = _from_stepper("t_end", "The final time T.")
-    num_steps = _from_stepper("num_steps", "The number of steps of a run to t_end.")
+    num_steps = _from_stepper("num_steps", "The number of nominal steps of a run to t_end.")
+    finished = _from_stepper("finished", "Whether t_end is reached.")
     u = _from_stepper("u", "The displacement u^n (a Function).")
     v = _from_stepper("v", "The velocity v^n (a Function).")
     a = _from_stepper("a", "The acceleration a^n (a Function).")
@@ -98,8 +106,16 @@ class Simulation:
         preconditioner_lag: int = 0,
         guard_friction: bool = True,
         linear_solver: str | None = None,
+        max_step_cuts: int = 5,
     ):
         time_stepping = TimeStepping(dt, t_end)
+        require(
+            isinstance(max_step_cuts, (int, np.integer)) and 0 <= max_step_cuts <= 30,
+            "max_step_cuts",
+            max_step_cuts,
+            "must be an integer from 0 to 30",
+        )
+        self.max_step_cuts = int(max_step_cuts)
         preset = None
         if linear_solver is not None:
             preset = linear_solver_preset(linear_solver, problem.mesh.comm)
@@ -149,9 +165,10 @@ class Simulation:
             values[name] = probe()
         return values
 
-    def step(self) -> int:
-        """Advance one time step; returns the Newton iterations."""
-        return self.stepper.step()
+    def step(self, t_new: float | None = None) -> int:
+        """Advance one time step, to the next nominal level or to ``t_new``; returns the
+        Newton iterations (no step cutting: that is :meth:`run`'s)."""
+        return self.stepper.step(t_new)
 
     def output_fields(self) -> dict:
         """The fields of ``solution.xdmf``: ``{name: (function or expression, shape)}``."""
@@ -190,10 +207,11 @@ class Simulation:
             ``history.csv`` come first).
 
         Raises:
-            SolverError: A step's Newton solve failed. The history and the fields stay
-                readable up to the last converged step, and that state is saved in
-                ``out/checkpoint`` (``error.checkpoint``, a
-                :class:`~nitsche_dolfinx.checkpoint.SavedState`).
+            SolverError: A step's Newton solve failed, also on the cut steps down to
+                tau / 2^max_step_cuts. The history and the fields stay readable up to
+                the last converged step, and that state is saved in ``out/checkpoint``
+                (``error.checkpoint``, a :class:`~nitsche_dolfinx.checkpoint.SavedState`);
+                a restart may change dt, gamma0 and the solver options.
             RunInterrupted: SIGINT or SIGTERM arrived (on any rank): every rank stops
                 after the same step, which is saved the same way.
             CheckpointError: The checkpoint to restart from is missing or does not fit.
@@ -265,6 +283,8 @@ class _Run:
                 self.last_saved = saved
             if sim.progress and self.comm.rank == 0:
                 print(f"restart: from {source}, step {saved.step}, t = {saved.t:.6g}", flush=True)
+            if saved.changes:
+                self.log_changes(saved)
         if self.out is None:
             return
         path = os.path.join(self.out, "history.csv")
@@ -273,6 +293,18 @@ class _Run:
         self.history.extend(self.writer.previous_rows)
         if self.output.output_every > 0:
             self.fields = self._solution_writer()
+
+    def log_changes(self, saved: SavedState) -> None:
+        """Say what a restart changed (dt, gamma0), and add it to ``out/restarts.log``."""
+        changes = ", ".join(f"{key} {old!r} -> {new!r}" for key, (old, new) in saved.changes.items())
+        line = f"restart at step {saved.step} (t = {saved.t!r}) from {saved.folder}: {changes}"
+        if self.comm.rank != 0:
+            return
+        if self.simulation.progress:
+            print(line, flush=True)
+        if self.out is not None:
+            with open(os.path.join(self.out, "restarts.log"), "a") as log:
+                log.write(line + "\n")
 
     def _solution_writer(self) -> SolutionWriter:
         sim = self.simulation
@@ -293,22 +325,48 @@ class _Run:
         sim, every = self.simulation, self.output.checkpoint_every
         if not self.restarted or self.writer is None:
             self.record(write=not self.restarted)  # a restarted level is already written
-        while sim.step_index < sim.num_steps:
+        while not sim.finished:
             try:
-                sim.step()
+                self.advance(sim.stepper.next_time(), 0, signals, callback)
             except SolverError as error:
                 error.checkpoint = self.save_on_stop()
                 raise
-            self.record()
-            if callback is not None:
-                callback(sim)
-            if every and sim.step_index % every == 0:
-                self.last_saved = sim.save_checkpoint(self.checkpoints, self.columns)
-            number = signals.requested(self.comm)
-            if number:
-                raise RunInterrupted(number, sim.step_index, sim.t, self.save_on_stop())
         if every and (self.last_saved is None or self.last_saved.step != sim.step_index):
             sim.save_checkpoint(self.checkpoints, self.columns)
+
+    def advance(self, t_target: float, cuts: int, signals: StopSignals, callback) -> None:
+        """Step to ``t_target``: in one step, or, if Newton fails, in two halves (each cut
+        again as needed, ``cuts`` times so far) down to tau / 2^max_step_cuts."""
+        sim = self.simulation
+        try:
+            sim.stepper.step(t_target, cuts)
+        except SolverError as error:
+            if cuts >= sim.max_step_cuts:
+                raise
+            failed = error
+        else:
+            self.after_step(signals, callback)
+            return
+        if sim.progress and self.comm.rank == 0:
+            print(
+                f"step to t = {t_target:.6g} failed ({failed.reason_name}): two steps of "
+                f"{(t_target - sim.t) / 2:.4g} instead",
+                flush=True,
+            )
+        self.advance(sim.t + (t_target - sim.t) / 2, cuts + 1, signals, callback)
+        self.advance(t_target, cuts + 1, signals, callback)
+
+    def after_step(self, signals: StopSignals, callback) -> None:
+        """Record the new level, call back, checkpoint as asked, and stop on a signal."""
+        sim, every = self.simulation, self.output.checkpoint_every
+        self.record()
+        if callback is not None:
+            callback(sim)
+        if every and sim.step_index % every == 0:
+            self.last_saved = sim.save_checkpoint(self.checkpoints, self.columns)
+        number = signals.requested(self.comm)
+        if number:
+            raise RunInterrupted(number, sim.step_index, sim.t, self.save_on_stop())
 
     def record(self, write: bool = True) -> None:
         """Add the current level to the history, and write it (rows, fields, progress)."""

@@ -218,7 +218,8 @@ class SNESSolver:
         self._zero = compat.create_vector(V)
         # the state of the convergence test of the current solve (see solve())
         self._atol, self._roundoff_bound, self._full_steps = 0.0, 0.0, True
-        self._first_norm = 0.0
+        self._first_norm, self._best = 0.0, (0.0, 0)
+        self._refresh_preconditioner = True  # factorise P at the next Jacobian (lagged)
         self._jacobian_changes: list[bool] = []
         self._split = (
             AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
@@ -241,6 +242,10 @@ class SNESSolver:
         #: How far above round-off an exact iterate's residual may be, relative to the
         #: scale of the equation (see :meth:`solve`).
         self.roundoff_bound = 1.0e-6
+        #: Full Newton steps stop after this many iterations without a new smallest
+        #: residual (semismooth Newton cycling between contact states; the line search
+        #: of :meth:`solve_with_line_search` takes over).
+        self.stall_limit = 12
 
         user_options = dict(petsc_options or {})
         comm = V.mesh.comm
@@ -339,8 +344,10 @@ class SNESSolver:
         if not np.isfinite(fnorm):
             return reasons.DIVERGED_FNORM_NAN
         if iteration == 0:  # one Newton step at least: the guess is not the solution
-            self._first_norm = fnorm
+            self._first_norm, self._best = fnorm, (fnorm, 0)
             return reasons.CONVERGED_FNORM_ABS if fnorm == 0.0 else reasons.ITERATING
+        if fnorm < self._best[0]:
+            self._best = (fnorm, iteration)
         if fnorm <= self._atol:
             return reasons.CONVERGED_FNORM_ABS
         if fnorm <= snes.getTolerances()[0] * self._first_norm:
@@ -349,6 +356,8 @@ class SNESSolver:
             return reasons.CONVERGED_SNORM_RELATIVE
         if iteration >= snes.getTolerances()[3]:
             return reasons.DIVERGED_MAX_IT
+        if self._full_steps and iteration - self._best[1] >= self.stall_limit:
+            return reasons.DIVERGED_MAX_IT  # cycling between contact states: no progress
         return reasons.ITERATING
 
     def _exact_before(self, iteration: int) -> bool:
@@ -388,7 +397,8 @@ class SNESSolver:
             self.preconditioner_updates += 1
             return
         ksp = snes.getKSP()
-        if self.preconditioner_updates == 0 or ksp.getIterationNumber() > self.preconditioner_lag:
+        refresh, self._refresh_preconditioner = self._refresh_preconditioner, False
+        if refresh or ksp.getIterationNumber() > self.preconditioner_lag:
             A.copy(P, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.preconditioner_updates += 1
             ksp.setType("preonly")  # P is A: one direct solve
@@ -429,16 +439,52 @@ class SNESSolver:
         self._atol = max(atol, _SMALLEST)
         self._roundoff_bound = self.roundoff_bound * scale
         self._full_steps = self._line_search_type == "basic"
-        self._jacobian_changes = []
-        u_vec.copy(self._x)
-        self.snes.solve(None, self._x)
-        reason = self.snes.getConvergedReason()
-        iterations = self.snes.getIterationNumber()
-        self._x.copy(u_vec)
-        self.u.x.scatter_forward()
+        start = self.u.x.array.copy()
+        reason, iterations = self._run_snes(u_vec)
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._P is not None:
+            # GMRES on a lagged factorisation gave up: again, factorising the Jacobian
+            self.u.x.array[:] = start
+            self._refresh_preconditioner = True
+            self._split.B_last = None
+            reason, more = self._run_snes(u_vec)
+            iterations += more
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
+
+    def _run_snes(self, u_vec) -> tuple[int, int]:
+        """SNES from ``u``, whose value becomes the last iterate; its reason and iterations."""
+        self._jacobian_changes = []
+        u_vec.copy(self._x)
+        self.snes.solve(None, self._x)
+        self._x.copy(u_vec)
+        self.u.x.scatter_forward()
+        return self.snes.getConvergedReason(), self.snes.getIterationNumber()
+
+    def solve_with_line_search(self, atol: float | None = None) -> int:
+        """:meth:`solve` with full Newton steps and, should they fail (semismooth Newton
+        may cycle between contact states), again from the same start with the ``l2``
+        line search; returns the Newton iterations of both."""
+        start = self.u.x.array.copy()
+        try:
+            return self.solve(atol)
+        except SolverError as error:
+            spent = error.iterations
+        self.u.x.array[:] = start
+        with self.line_search("l2"):
+            try:
+                return spent + self.solve(atol)
+            except SolverError as error:
+                error.iterations += spent
+                raise
+
+    def update_constant_terms(self) -> None:
+        """Assemble again the constant bulk Jacobian after a constant in it changed (the
+        time step); the next Jacobian is then factorised anew."""
+        if self._split is not None:
+            self._split.update_K()
+            self._split.B_last = None  # the next evaluation sums and factorises
+            self._refresh_preconditioner = True
 
     @contextlib.contextmanager
     def line_search(self, kind: str):

@@ -28,6 +28,7 @@ from .model import ContactProblem, as_array
 from .parameters import ParameterError, TimeStepping, require
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
+from .timelevels import TimeLevels
 
 __all__ = [
     "NitscheStepper",
@@ -42,13 +43,16 @@ __all__ = [
 class Stepper(Protocol):
     """What :class:`~nitsche_dolfinx.simulation.Simulation` needs of a stepper.
 
-    Attributes: ``problem``, ``scheme``, ``comm``, ``dt``, ``num_steps``; the state
-    ``u``, ``v``, ``a`` (Functions on ``problem.V``), ``t``, ``step_index``,
-    ``newton_iterations`` and ``step_seconds`` of the last step.
+    Attributes: ``problem``, ``scheme``, ``comm``; the clock of
+    :class:`~nitsche_dolfinx.timelevels.TimeLevels` (``dt``, ``t``, ``step_index``,
+    ``next_time()``, ``finished``, ...); the state ``u``, ``v``, ``a`` (Functions on
+    ``problem.V``), and ``newton_iterations`` and ``step_seconds`` of the last step.
     """
 
-    def step(self) -> int:
-        """Advance one step; return the Newton iterations."""
+    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
+        """Advance one step to ``t_new`` (default: the next nominal level), a step halved
+        ``cuts`` times; return the Newton iterations. On a SolverError the state is
+        that of before the step."""
 
     def state(self) -> dict[str, float]:
         """The diagnostics of the current time level, identical on every rank."""
@@ -62,8 +66,9 @@ class Stepper(Protocol):
     def describe(self) -> dict[str, Any]:
         """What a checkpoint must share with the stepper that reloads it."""
 
-    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
-        """Move to a time level whose functions were just loaded."""
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        """Move to a time level whose functions were just loaded (``saved``: the
+        checkpoint's description)."""
 
 
 def massless_velocity(massless, u, u1, v1, a1, dt) -> None:
@@ -142,12 +147,13 @@ def checkpoint_description(stepper) -> dict[str, Any]:
         "mass": problem.mass,
         "degree": problem.degree,
         "gamma0": float(np.asarray(problem.gamma0.value)),
+        "gamma0_scaling": problem.gamma0_scaling,
         "nitsche_theta": float(np.asarray(problem.nitsche_theta.value)),
         "functions": sorted(stepper.checkpoint_functions()),
     }
 
 
-class NitscheStepper:
+class NitscheStepper(TimeLevels):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` with Nitsche or penalty
     contact by a time scheme: one SNES solve per step.
 
@@ -177,15 +183,14 @@ class NitscheStepper:
                 "the redistributed mass with Crank-Nicolson, theta or Newmark",
             )
         self.problem, self.scheme = problem, scheme
-        self.dt, self.t_end = time_stepping.dt, time_stepping.t_end
-        self.num_steps = time_stepping.num_steps
+        self._start_levels(time_stepping)
         self.comm = problem.mesh.comm
         V = problem.V
         self.u = fem.Function(V, name="displacement")
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
         self.w = fem.Function(V, name="unknown")
-        self.t, self.step_index, self.newton_iterations, self.step_seconds = 0.0, 0, 0, 0.0
+        self.newton_iterations, self.step_seconds = 0, 0.0
 
         fdim = problem.mesh.topology.dim - 1
         self._bc_dofs = [
@@ -194,7 +199,7 @@ class NitscheStepper:
         ]
         self._w_bc = fem.Function(V)
         bcs = [fem.dirichletbc(self._w_bc, dofs) for dofs, _ in self._bc_dofs]
-        dt_c = fem.Constant(problem.mesh, self.dt)
+        self._dt = dt_c = fem.Constant(problem.mesh, self.dt)  # the size of the step
         self.solver = self._step_solver(
             dt_c, bcs, petsc_options, reuse_jacobian, preconditioner_lag, guard_friction
         )
@@ -267,13 +272,17 @@ class NitscheStepper:
         )
         values["newton_iterations"] = self.newton_iterations
         values["step_seconds"] = self.step_seconds
+        values["dt"] = self.last_dt
+        values["step_cuts"] = self.step_cuts
         return values
 
-    def step(self) -> int:
-        """Advance one time step; returns the Newton iterations."""
+    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
+        """Advance one time step to ``t_new`` (default: the next nominal level); returns
+        the Newton iterations. If Newton fails, the state stays that of t^n."""
         start = time.perf_counter()
-        problem, scheme, dt = self.problem, self.scheme, self.dt
-        t_new = (self.step_index + 1) * dt  # no drift from adding dt up
+        problem, scheme = self.problem, self.scheme
+        t_new, dt = self._step_to(t_new)
+        self._set_step_size(dt)
         problem.set_time(scheme.equation_time(self.t, dt))
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
         if self._bc_dofs:
@@ -293,12 +302,18 @@ class NitscheStepper:
         if self._friction is not None:  # before u^n is overwritten
             self.friction_dissipation = self._friction.work(u1 - u)
         u[:], v[:], a[:] = u1, v1, a1
-        self.t = t_new
-        self.step_index += 1
+        self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
         self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
+
+    def _set_step_size(self, dt: float) -> None:
+        """Make the step's equation one for a step of size ``dt`` (its bulk Jacobian, in
+        which tau appears, is then assembled again)."""
+        if float(self._dt.value) != dt:
+            self._dt.value = dt
+            self.solver.update_constant_terms()
 
     def _energy_theta(self) -> float:
         """E_Theta at the current level (from the last state() when it was at this level)."""
@@ -310,7 +325,7 @@ class NitscheStepper:
         """The step's Newton solve from the current ``w``; returns the Newton iterations.
         With friction, guarded (see :class:`~nitsche_dolfinx.friction.GuardedNewton`)."""
         if self._guarded is None:
-            return self.solver.solve()
+            return self.solver.solve_with_line_search()
         guarded, solver = self._guarded, self.solver
         # every guarded solve of the step has the tolerance of Coulomb's equation
         tolerance = solver.snes.getTolerances()[0] * guarded.coulomb_scale(solver)
@@ -323,7 +338,7 @@ class NitscheStepper:
     def _coasting_unknown(self) -> np.ndarray:
         """The unknown w of the step whose new velocity is v^n: the state coasting at
         constant velocity, where the guarded friction law takes its first reference."""
-        u, v, a, dt = self.u.x.array, self.v.x.array, self.a.x.array, self.dt
+        u, v, a, dt = self.u.x.array, self.v.x.array, self.a.x.array, float(self._dt.value)
         _, v_0, _ = self.scheme.kinematics(u, v, a, 0.0, dt)
         _, v_1, _ = self.scheme.kinematics(u, v, a, 1.0, dt)
         return (v - v_0) / (v_1 - v_0)
@@ -358,7 +373,8 @@ class NitscheStepper:
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
 
-    def restore(self, t: float, step_index: int, newton_iterations: int) -> None:
-        self.t, self.step_index = t, step_index
-        self.newton_iterations, self.step_seconds = newton_iterations, 0.0
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        self._restore_levels(t, step_index, saved)
+        self.newton_iterations = int(saved.get("newton_iterations", 0))
+        self.step_seconds = 0.0
         self.problem.set_time(t)

@@ -169,6 +169,7 @@ def test_solver_failure_names_step_and_time():
         dt=0.1,
         t_end=2.0,
         petsc_options={"snes_max_it": 1, "snes_rtol": 1e-15, "snes_atol": 1e-300},
+        max_step_cuts=0,
     )
     with pytest.raises(SolverError) as info:
         sim.run()

@@ -1,0 +1,100 @@
+"""When Newton fails (docs/method.md section 8): the line search, then cut steps, then a
+clean stop; t_end reached exactly; a lagged factorisation refreshed instead of failing."""
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+from runs import MESH
+
+from nitsche_dolfinx import (
+    ContactProblem,
+    HybridScheme,
+    Material,
+    PlaneObstacle,
+    Simulation,
+    SolverError,
+    ThetaScheme,
+    load_mesh,
+)
+from nitsche_dolfinx.cases import bar_simulation, impact_problem
+
+
+def test_t_end_is_reached_exactly_by_a_shorter_last_step():
+    history = bar_simulation(HybridScheme(), dt=0.005, t_end=0.0126, nx=20).run()
+    assert history["t"] == pytest.approx([0.0, 0.005, 0.01, 0.0126], abs=1e-15)
+    assert history["t"][-1] == 0.0126
+    assert history["dt"] == pytest.approx([0.0, 0.005, 0.005, 0.0026], abs=1e-15)
+    assert list(history["step_cuts"]) == [0, 0, 0, 0]
+
+
+def test_grid_steps_are_tau_itself():
+    """From a nominal level to the next the step is tau, not a difference of times (which
+    differs by round-off): 6 / 0.015 is 400 steps of exactly 0.015, ending at 6.0."""
+    history = bar_simulation(HybridScheme(), nx=10).run()
+    assert len(history) == 401 and history["t"][-1] == 6.0
+    assert np.all(history["dt"][1:] == 0.015)
+
+
+def _disk(**options):
+    return Simulation(impact_problem(dim=2, mesh_size=8.0), HybridScheme(), dt=0.1, **options)
+
+
+def test_failed_steps_are_cut_and_the_run_goes_back_to_its_grid():
+    """One Newton iteration per solve (snes_max_it = 1): the contact steps that need more
+    are cut in halves until one iteration suffices; the run still ends at t_end, every
+    nominal level is in the history, and the energy behaves as in the normal run."""
+    options = {"snes_max_it": 1}
+    history = _disk(t_end=20.0, petsc_options=options).run()
+    reference = _disk(t_end=20.0).run()
+    cut = history["step_cuts"] > 0
+    assert cut.sum() >= 2 and history.cut_steps() == cut.sum()
+    assert history["t"][-1] == 20.0 and np.all(np.diff(history["t"]) > 0)
+    levels = history["t"] / 0.1
+    on_grid = np.abs(levels - np.round(levels)) < 1e-9
+    assert np.array_equal(np.round(levels[on_grid]), np.arange(201))  # every nominal level
+    assert np.all(history["step_cuts"][~on_grid] > 0)
+    assert history["dt"][cut] == pytest.approx(0.1 / 2 ** history["step_cuts"][cut])
+    assert np.all(history["newton_iterations"][1:] <= 2)  # full steps, then the line search
+    energy, expected = history["energy"][-1], reference["energy"][-1]
+    assert abs(energy / expected - 1) < 1e-2
+
+
+def test_a_step_that_cannot_converge_stops_the_run_after_the_cuts(tmp_path):
+    """One Newton iteration and tolerances nothing reaches: every cut fails too;
+    SolverError names the last step tried (tau / 2^2 here), and the last converged level is
+    the checkpoint."""
+    simulation = _disk(t_end=1.0, max_step_cuts=2)
+    simulation.solver.user_atol = 1e-300
+    simulation.solver.snes.setTolerances(rtol=1e-300, max_it=1)
+    with pytest.raises(SolverError) as info:
+        simulation.run(out=str(tmp_path))
+    assert info.value.step == 1 and info.value.t == pytest.approx(0.025)
+    assert info.value.checkpoint.step == 0
+    assert simulation.t == 0.0
+
+
+def test_lagged_factorisation_is_refreshed_when_gmres_fails():
+    """GMRES on a lagged factorisation, allowed one iteration only: at the first contact
+    step it fails (DIVERGED_LINEAR_SOLVE), and the solve starts again with the current
+    Jacobian factorised, instead of stopping the run; the state is the direct solver's."""
+    lagged = _disk(t_end=11.0, preconditioner_lag=10, petsc_options={"ksp_max_it": 1})
+    lagged.run()
+    direct = _disk(t_end=11.0)
+    direct.run()
+    assert lagged.solver.preconditioner_updates > 2
+    scale = np.abs(direct.u.x.array).max()
+    assert np.abs(lagged.u.x.array - direct.u.x.array).max() < 1e-8 * scale
+
+
+@pytest.mark.parametrize("scheme", [HybridScheme(), ThetaScheme(1.0)], ids=["hybrid", "euler"])
+def test_ring_comes_to_rest_by_defaults(scheme):
+    """The README's ring to t = 10, where it comes to rest on the ground (full Newton
+    steps cycle there with the hybrid scheme; the line search takes over)."""
+    mesh, tags = load_mesh(MESH, gdim=2, comm=MPI.COMM_WORLD)
+    problem = ContactProblem(mesh, tags, Material(E=1000.0, nu=0.3, rho=1.0), gamma0=1e-6)
+    problem.add_obstacle(PlaneObstacle(point=[0.0, 0.0], normal=[0.0, 1.0]), tag=1)
+    problem.add_body_force([0.0, -1.0])
+    problem.set_initial_conditions(velocity=[0.0, -1.0])
+    history = Simulation(problem, scheme, dt=0.005, t_end=10.0).run()
+    assert history["t"][-1] == 10.0
+    assert history.largest_rise() < 1e-9
