@@ -182,6 +182,13 @@ class NitscheStepper(TimeLevels):
                 "alternate around the obstacle (measured: E grows 48-fold on the bar); use "
                 "the redistributed mass with Crank-Nicolson, theta or Newmark",
             )
+        if problem.dirichlet and scheme.displacement_coefficient(time_stepping.dt) == 0.0:
+            raise ParameterError(
+                "scheme",
+                scheme.describe(),
+                "an explicit scheme (theta = 0, Newmark beta = 0) gives u^{n+1} before the "
+                "step's solve, so it cannot impose Dirichlet values; use theta > 0 or beta > 0",
+            )
         self.problem, self.scheme = problem, scheme
         self._start_levels(time_stepping)
         self.comm = problem.mesh.comm

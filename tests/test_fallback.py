@@ -98,3 +98,13 @@ def test_ring_comes_to_rest_by_defaults(scheme):
     history = Simulation(problem, scheme, dt=0.005, t_end=10.0).run()
     assert history["t"][-1] == 10.0
     assert history.largest_rise() < 1e-9
+
+
+@pytest.mark.parametrize("scheme", ["theta", "newmark"])
+def test_explicit_scheme_with_dirichlet_values_is_refused(scheme):
+    from nitsche_dolfinx import NewmarkScheme
+    from nitsche_dolfinx.parameters import ParameterError
+
+    explicit = ThetaScheme(0.0) if scheme == "theta" else NewmarkScheme(0.0, 0.5)
+    with pytest.raises(ParameterError, match="cannot impose Dirichlet values"):
+        bar_simulation(explicit, nx=10, t_end=0.03)
