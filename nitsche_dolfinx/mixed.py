@@ -36,7 +36,6 @@ from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
 from .solver import SNESSolver
-from .timelevels import TimeLevels
 from .stepper import (
     check_initial_gap,
     checkpoint_description,
@@ -44,6 +43,7 @@ from .stepper import (
     interpolate_initial,
     massless_velocity,
 )
+from .timelevels import TimeLevels
 
 __all__ = ["MixedStepper"]
 

@@ -218,6 +218,20 @@ class ContactProblem:
         self.contact_tags.append(tag)
         return contact
 
+    def solver_hint(self) -> str:
+        """What may make a failing contact step converge, in words ('' without contact)."""
+        if not self.contacts or self.method == "mixed":
+            return ""
+        gamma0 = float(np.asarray(self.gamma0.value))
+        dimensionless = gamma0 * self.material.E if self.gamma0_scaling == "absolute" else gamma0
+        return (
+            f"gamma0 * E = {dimensionless:.3g}: a smaller gamma0 (about 1e-3 / E suits P1 "
+            "and P2, see docs/method.md section 10) or a smaller dt may let Newton converge"
+            if self.gamma0_scaling == "absolute"
+            else f"gamma0 = {gamma0:.3g} (scaled by E): a smaller gamma0 (about 1e-3 suits P1 "
+            "and P2, see docs/method.md section 10) or a smaller dt may let Newton converge"
+        )
+
     def set_initial_conditions(self, displacement=None, velocity=None) -> None:
         """Initial displacement u0 and velocity v0 (zero when omitted).
 

@@ -14,6 +14,7 @@ the steps is the same for every method::
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -264,6 +265,7 @@ class _Run:
         self.checkpoints = os.path.join(out, "checkpoint") if out is not None else None
         self.last_saved: SavedState | None = None  # the checkpoint of the current step
         self.restarted = False
+        self.warned_cut = False  # the note on the first cut step is printed
         self.history = History()
         self.writer: HistoryWriter | None = None
         self.fields: SolutionWriter | None = None
@@ -296,7 +298,9 @@ class _Run:
 
     def log_changes(self, saved: SavedState) -> None:
         """Say what a restart changed (dt, gamma0), and add it to ``out/restarts.log``."""
-        changes = ", ".join(f"{key} {old!r} -> {new!r}" for key, (old, new) in saved.changes.items())
+        changes = ", ".join(
+            f"{key} {old!r} -> {new!r}" for key, (old, new) in saved.changes.items()
+        )
         line = f"restart at step {saved.step} (t = {saved.t!r}) from {saved.folder}: {changes}"
         if self.comm.rank != 0:
             return
@@ -342,6 +346,9 @@ class _Run:
             sim.stepper.step(t_target, cuts)
         except SolverError as error:
             if cuts >= sim.max_step_cuts:
+                hint = sim.problem.solver_hint()
+                if hint:
+                    error.add_hint(f"also with steps of dt/{2**cuts:g}; {hint}")
                 raise
             failed = error
         else:
@@ -353,6 +360,16 @@ class _Run:
                 f"{(t_target - sim.t) / 2:.4g} instead",
                 flush=True,
             )
+        if not self.warned_cut and self.comm.rank == 0:  # once per run, even when quiet
+            hint = sim.problem.solver_hint()
+            hint = f"; if this recurs, {hint}" if hint else ""
+            print(
+                f"note: Newton failed on the step to t = {t_target:.6g}; the step is cut in "
+                f"halves (history.csv column step_cuts){hint}",
+                file=sys.stderr,
+                flush=True,
+            )
+        self.warned_cut = True
         self.advance(sim.t + (t_target - sim.t) / 2, cuts + 1, signals, callback)
         self.advance(t_target, cuts + 1, signals, callback)
 

@@ -72,6 +72,7 @@ class SolverError(RuntimeError):
         self.residual_norm = residual_norm
         self.step = None
         self.t = None
+        self.hint = None
         super().__init__(self._message())
 
     def _message(self) -> str:
@@ -85,6 +86,11 @@ class SolverError(RuntimeError):
         """Record the time step and time at which the solve failed (they join the message)."""
         self.step, self.t = step, t
         self.args = (self._message(),)
+
+    def add_hint(self, hint: str) -> None:
+        """Add what may help (e.g. a smaller gamma0) to the message."""
+        self.hint = hint
+        self.args = (f"{self._message()}; {hint}",)
 
 
 _MUMPS: dict = {}
@@ -367,11 +373,7 @@ class SNESSolver:
         Jacobian (the same contact status at every quadrature point) at both ends of a
         full step, that step landed on the solution."""
         changes = self._jacobian_changes
-        return (
-            iteration - 1 < len(changes)
-            and not changes[iteration - 1]
-            and self._full_steps
-        )
+        return iteration - 1 < len(changes) and not changes[iteration - 1] and self._full_steps
 
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1

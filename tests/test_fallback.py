@@ -69,6 +69,7 @@ def test_a_step_that_cannot_converge_stops_the_run_after_the_cuts(tmp_path):
     with pytest.raises(SolverError) as info:
         simulation.run(out=str(tmp_path))
     assert info.value.step == 1 and info.value.t == pytest.approx(0.025)
+    assert "also with steps of dt/4; gamma0 * E = 0.05: a smaller gamma0" in str(info.value)
     assert info.value.checkpoint.step == 0
     assert simulation.t == 0.0
 
