@@ -146,6 +146,10 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         "--petsc", type=petsc_option, action="append", default=[], metavar="KEY=VALUE",
         help="extra PETSc option of the step's solver (repeatable; wins over --linear-solver)",
     )  # fmt: skip
+    parser.add_argument(
+        "--max-step-cuts", type=int, default=5,
+        help="a step whose Newton fails is halved, down to dt/2^N, before the run stops",
+    )  # fmt: skip
     add_run_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no line per time step")
     parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
@@ -186,7 +190,7 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
     simulation = Simulation(
         problem, make_scheme(scheme, **parameters), dt=args.dt, t_end=args.t_end,
         petsc_options=dict(args.petsc), linear_solver=args.linear_solver,
-        progress=not (args.quiet or compared),
+        progress=not (args.quiet or compared), max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     restart = args.restart and (not compared or has_checkpoint(os.path.join(out, "checkpoint")))
     MPI.COMM_WORLD.barrier()
