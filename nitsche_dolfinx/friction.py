@@ -214,15 +214,4 @@ class GuardedNewton:
         """One solve with a fixed reference: full Newton steps and, should they cycle
         among the pieces of the law, again from the same start with the l2 line search
         (measured: the block just stopped, its edges still slipping)."""
-        start = self.w.x.array.copy()
-        try:
-            return solver.solve(tolerance)
-        except SolverError as error:
-            spent = error.iterations
-        self.w.x.array[:] = start
-        with solver.line_search("l2"):
-            try:
-                return spent + solver.solve(tolerance)
-            except SolverError as error:
-                error.iterations += spent
-                raise
+        return solver.solve_with_line_search(tolerance)
