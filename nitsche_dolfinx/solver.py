@@ -225,6 +225,7 @@ class SNESSolver:
         # the state of the convergence test of the current solve (see solve())
         self._atol, self._roundoff_bound, self._full_steps = 0.0, 0.0, True
         self._first_norm, self._best = 0.0, (0.0, 0)
+        self._zero_norm, self._given_atol = 0.0, None
         self._refresh_preconditioner = True  # factorise P at the next Jacobian (lagged)
         self._jacobian_changes: list[bool] = []
         self._split = (
@@ -351,6 +352,7 @@ class SNESSolver:
             return reasons.DIVERGED_FNORM_NAN
         if iteration == 0:  # one Newton step at least: the guess is not the solution
             self._first_norm, self._best = fnorm, (fnorm, 0)
+            self._set_tolerances(max(fnorm, self._zero_norm), snes.getTolerances()[0])
             return reasons.CONVERGED_FNORM_ABS if fnorm == 0.0 else reasons.ITERATING
         if fnorm < self._best[0]:
             self._best = (fnorm, iteration)
@@ -374,6 +376,13 @@ class SNESSolver:
         full step, that step landed on the solution."""
         changes = self._jacobian_changes
         return iteration - 1 < len(changes) and not changes[iteration - 1] and self._full_steps
+
+    def _set_tolerances(self, scale: float, rtol: float) -> None:
+        """The absolute tolerance and the round-off bound of the solve under way, from
+        the scale of its equation (see :meth:`solve`)."""
+        atol = self._given_atol if self._given_atol is not None else rtol * scale
+        self._atol = max(atol, _SMALLEST)
+        self._roundoff_bound = self.roundoff_bound * scale
 
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
@@ -433,21 +442,16 @@ class SNESSolver:
         u_vec = compat.petsc_vector(self.u)
         if self._split is not None:
             self._split.update_cell_residual(self.u)
-        scale = self.equation_scale(new_coefficients=False)
-        if self.user_atol is not None:
-            atol = self.user_atol
-        elif atol is None:
-            atol = self.snes.getTolerances()[0] * scale
-        self._atol = max(atol, _SMALLEST)
-        self._roundoff_bound = self.roundoff_bound * scale
+        # ||F(u_0)|| is SNES's first residual: the convergence test takes it from there
+        self._zero_norm = self._norm_at_zero()
+        self._given_atol = self.user_atol if self.user_atol is not None else atol
         self._full_steps = self._line_search_type == "basic"
         start = self.u.x.array.copy()
         reason, iterations = self._run_snes(u_vec)
         if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._P is not None:
             # GMRES on a lagged factorisation gave up: again, factorising the Jacobian
             self.u.x.array[:] = start
-            self._refresh_preconditioner = True
-            self._split.B_last = None
+            self._factorise_at_next_jacobian()
             reason, more = self._run_snes(u_vec)
             iterations += more
         if reason <= 0:
@@ -485,8 +489,13 @@ class SNESSolver:
         time step); the next Jacobian is then factorised anew."""
         if self._split is not None:
             self._split.update_K()
-            self._split.B_last = None  # the next evaluation sums and factorises
-            self._refresh_preconditioner = True
+            self._factorise_at_next_jacobian()
+
+    def _factorise_at_next_jacobian(self) -> None:
+        """Make the next Jacobian evaluation sum K_bc + B and factorise it (also when
+        lagging), whether or not the contact part changed."""
+        self._split.B_last = None
+        self._refresh_preconditioner = True
 
     @contextlib.contextmanager
     def line_search(self, kind: str):
@@ -509,18 +518,17 @@ class SNESSolver:
     def equation_scale(self, new_coefficients: bool = True) -> float:
         """The scale of the equation at the current coefficients: the larger of ||F(0)||
         and ||F(u)|| at the current ``u``, which is left as it was (collective)."""
-        if self._split is not None and new_coefficients:
-            self._split.update_cell_residual(self.u)
+        return max(self.residual_norm(new_coefficients), self._norm_at_zero())
+
+    def _norm_at_zero(self) -> float:
+        """||F(0)|| for the current coefficients (collective); ``u`` is left as it was."""
         u_vec = compat.petsc_vector(self.u)
         u_vec.copy(self._x)
-        self._assemble_residual(self.snes, self._x, self._b)
-        at_guess = self._b.norm()
         self._zero.set(0.0)
         self._assemble_residual(self.snes, self._zero, self._b)
-        at_zero = self._b.norm()
         self._x.copy(u_vec)
         self.u.x.scatter_forward()
-        return max(at_guess, at_zero)
+        return self._b.norm()
 
     def residual_norm(self, new_coefficients: bool = True) -> float:
         """The Euclidean norm of the residual at the current value of ``u`` (collective).
