@@ -281,18 +281,14 @@ class SolutionWriter:
         """Open the working copy, write the mesh if not yet written and the fields at ``t``
         (if any), close, and rename the copy over the XDMF file (collective)."""
         new_file = not self.append and not self._mesh_written
-        error = None
-        if self.comm.rank == 0:
-            try:
-                if new_file:
-                    _remove_segments(os.path.splitext(self.path)[0])
-                else:  # dolfinx rewrites the XML in place: work on a copy
-                    shutil.copyfile(self.path, self._part)
-            except OSError as exc:
-                error = _os_error(self._part, exc)
-        error = self.comm.bcast(error, root=0)
-        if error is not None:
-            raise ValueError(error)
+
+        def prepare():
+            if new_file:
+                _remove_segments(os.path.splitext(self.path)[0])
+            else:  # dolfinx rewrites the XML in place: work on a copy
+                shutil.copyfile(self.path, self._part)
+
+        _on_rank_0(self.comm, prepare, self._part)
         xdmf = XDMFFile(self.comm, self._part, "w" if new_file else "a")
         try:
             if not self._mesh_written:
@@ -312,17 +308,25 @@ class SolutionWriter:
         finally:
             xdmf.close()
         self._mesh_written = True
-        if self.comm.rank == 0:  # the HDF5 file is closed on every rank: name its data
-            try:
-                os.replace(self._part, self.path)
-            except OSError as exc:
-                error = _os_error(self.path, exc)
-        error = self.comm.bcast(error, root=0)
-        if error is not None:
-            raise ValueError(error)
+        # the HDF5 file is closed on every rank: name its data
+        _on_rank_0(self.comm, lambda: os.replace(self._part, self.path), self.path)
 
     def close(self) -> None:
         """Nothing left to do: every level is closed as written."""
+
+
+def _on_rank_0(comm, action, path: str) -> None:
+    """Run the file operation ``action()`` on rank 0 (collective); an OSError becomes the
+    same ValueError, naming ``path``, on every rank."""
+    error = None
+    if comm.rank == 0:
+        try:
+            action()
+        except OSError as exc:
+            error = _os_error(path, exc)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise ValueError(error)
 
 
 def _series_files(path: str) -> tuple[set[int], bool]:
