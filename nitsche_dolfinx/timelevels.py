@@ -46,8 +46,8 @@ class TimeLevels:
 
     @property
     def num_steps(self) -> int:
-        """The number of steps of the grid from ``time_origin`` to t_end (cut steps not
-        counted)."""
+        """The number of steps of tau from t = 0 to t_end, the last one shorter when
+        t_end is not a multiple of tau (:attr:`TimeStepping.num_steps`)."""
         return TimeStepping(self.dt, self.t_end).num_steps
 
     def next_time(self) -> float:
