@@ -146,10 +146,6 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         "--petsc", type=petsc_option, action="append", default=[], metavar="KEY=VALUE",
         help="extra PETSc option of the step's solver (repeatable; wins over --linear-solver)",
     )  # fmt: skip
-    parser.add_argument(
-        "--max-step-cuts", type=int, default=5,
-        help="a step whose Newton fails is halved, down to dt/2^N, before the run stops",
-    )  # fmt: skip
     add_run_arguments(parser)
     parser.add_argument("--quiet", action="store_true", help="no line per time step")
     parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
@@ -185,7 +181,7 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
     problem = impact_problem(
         dim=dim, mesh_size=args.mesh_size, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, friction=args.mu,
-        tangential_velocity=args.tangential_velocity,
+        tangential_velocity=args.tangential_velocity, gamma0_scaling=args.gamma0_scaling,
     )  # fmt: skip
     simulation = Simulation(
         problem, make_scheme(scheme, **parameters), dt=args.dt, t_end=args.t_end,

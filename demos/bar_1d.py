@@ -154,6 +154,8 @@ def bar_simulation(args: argparse.Namespace, scheme_name: str, method: str):
         degree=args.degree,
         gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta,
+        gamma0_scaling=args.gamma0_scaling,
+        max_step_cuts=args.max_step_cuts,
     )
 
 

@@ -110,6 +110,7 @@ def run(args):
         degree=args.degree,
         gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta,
+        gamma0_scaling=args.gamma0_scaling,
     )
     simulation = Simulation(
         problem,
@@ -117,6 +118,7 @@ def run(args):
         dt=args.dt,
         t_end=args.t_end,
         progress=not args.quiet,
+        max_step_cuts=args.max_step_cuts,
     )
     add_block_probes(simulation)
     return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)

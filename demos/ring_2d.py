@@ -143,11 +143,19 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
         degree=args.degree,
         gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta,
+        gamma0_scaling=args.gamma0_scaling,
     )
     problem.add_body_force((0.0, -MATERIAL.rho * GRAVITY))
     problem.add_obstacle(PlaneObstacle(point=(0.0, 0.0), normal=(0.0, 1.0)), RING_CONTACT)
     problem.set_initial_conditions(velocity=INITIAL_VELOCITY)
-    return Simulation(problem, scheme, dt=args.dt, t_end=args.t_end, progress=not args.quiet)
+    return Simulation(
+        problem,
+        scheme,
+        dt=args.dt,
+        t_end=args.t_end,
+        progress=not args.quiet,
+        max_step_cuts=args.max_step_cuts,
+    )
 
 
 # ### Measuring

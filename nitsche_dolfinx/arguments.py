@@ -3,8 +3,8 @@ flags of docs/method.md section 6, the checkpoint flags, early checks, and error
 as one line.
 
 Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
-``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--degree``, ``--dt``,
-``--t-end``); :func:`add_method_arguments` adds them with the demo's defaults and
+``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--gamma0-scaling``,
+``--degree``, ``--dt``, ``--t-end``, ``--max-step-cuts``); :func:`add_method_arguments` adds them with the demo's defaults and
 :func:`method_parameters` turns them into the validated parameter objects of
 :mod:`nitsche_dolfinx.parameters` before anything is computed. A bad value is
 reported under the flag that gave it (``--gamma0 0: ...``).
@@ -39,6 +39,7 @@ from petsc4py import PETSc
 from .checkpoint import ERROR_AGREEMENT_SECONDS, RunInterrupted, all_ranks_reach
 from .output import ensure_directory
 from .parameters import (
+    GAMMA0_SCALINGS,
     Discretisation,
     NitscheParameters,
     OutputParameters,
@@ -109,9 +110,23 @@ def add_method_arguments(
     parser.add_argument(
         "--gamma0", type=finite_float, default=gamma0, help="Nitsche parameter, gamma_h = gamma0 h"
     )
+    parser.add_argument(
+        "--gamma0-scaling",
+        choices=GAMMA0_SCALINGS,
+        default="absolute",
+        help="absolute: gamma_h = gamma0 h (gamma0 in 1/stress, the paper's); E: gamma_h = "
+        "gamma0 h / E (gamma0 without units, about 1e-3)",
+    )
     parser.add_argument("--degree", type=int, default=degree, help="Lagrange degree (1 or 2)")
     parser.add_argument("--dt", type=finite_float, default=dt, help="time step tau")
     parser.add_argument("--t-end", type=finite_float, default=t_end, help="final time T")
+    parser.add_argument(
+        "--max-step-cuts",
+        type=int,
+        default=5,
+        metavar="N",
+        help="a step whose Newton fails is halved, down to dt/2^N, before the run stops",
+    )
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
@@ -169,12 +184,13 @@ def method_parameters(args: argparse.Namespace) -> MethodParameters:
     """
     return MethodParameters(
         scheme=scheme_from_arguments(args),
-        time=TimeStepping(args.dt, args.t_end),
+        time=TimeStepping(args.dt, args.t_end, args.max_step_cuts),
         nitsche=NitscheParameters(
             args.gamma0,
             args.nitsche_theta,
             getattr(args, "mu", None),
             getattr(args, "method", "nitsche"),
+            args.gamma0_scaling,
         ),
         discretisation=Discretisation(args.degree, getattr(args, "mass", "consistent")),
         output=OutputParameters(
@@ -254,7 +270,11 @@ def _status_and_message(error: BaseException) -> tuple[int, str]:
         return 130, "interrupted (KeyboardInterrupt)"
     if isinstance(error, SolverError):
         saved = getattr(error, "checkpoint", None)
-        extra = f"; {saved} (continue with --restart)" if saved is not None else ""
+        extra = (
+            f"; {saved} (continue with --restart; a smaller dt or gamma0 is allowed there)"
+            if saved is not None
+            else ""
+        )
         return 1, _one_line(error) + extra
     if isinstance(error, _INPUT_ERRORS):
         return 2, _one_line(error)

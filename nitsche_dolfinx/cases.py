@@ -42,6 +42,7 @@ def bar_problem(
     comm=MPI.COMM_WORLD,
     method: str = "nitsche",
     mass: str = "consistent",
+    gamma0_scaling: str = "absolute",
 ) -> ContactProblem:
     """The 1D bar with multiple impacts: (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0,
     u0 = 1/2 - x/2, v0 = 0; ``method`` is that of :class:`ContactProblem`."""
@@ -55,6 +56,7 @@ def bar_problem(
         nitsche_theta=nitsche_theta,
         method=method,
         mass=mass,
+        gamma0_scaling=gamma0_scaling,
     )
     problem.add_dirichlet(BAR_CLAMPED, 0.0)
     problem.add_obstacle(PlaneObstacle(point=[0.0], normal=[1.0]), BAR_CONTACT)
@@ -69,13 +71,14 @@ def bar_simulation(
     dt: float = 0.015,
     t_end: float = 6.0,
     comm=MPI.COMM_WORLD,
+    max_step_cuts: int = 5,
     **problem_parameters,
 ):
     """The bar ready to run with ``method`` (one of
     :data:`~nitsche_dolfinx.parameters.CONTACT_METHODS`; the mixed method takes
     Crank-Nicolson only), its probes added."""
     problem = bar_problem(comm=comm, method=method, mass=mass, **problem_parameters)
-    simulation = Simulation(problem, scheme, dt=dt, t_end=t_end)
+    simulation = Simulation(problem, scheme, dt=dt, t_end=t_end, max_step_cuts=max_step_cuts)
     add_bar_probes(simulation)
     return simulation
 
@@ -102,6 +105,7 @@ def impact_problem(
     comm=MPI.COMM_WORLD,
     friction: float | None = None,
     tangential_velocity: float = 0.0,
+    gamma0_scaling: str = "absolute",
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
 
@@ -127,6 +131,7 @@ def impact_problem(
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,
         friction=friction,
+        gamma0_scaling=gamma0_scaling,
     )
     up = [0.0] * dim
     up[-1] = 1.0
@@ -154,6 +159,7 @@ def block_problem(
     gamma0: float | None = None,
     nitsche_theta: float = 1.0,
     comm=MPI.COMM_WORLD,
+    gamma0_scaling: str = "absolute",
 ) -> ContactProblem:
     """A block resting on the rigid plane y = 0 under gravity, thrown along it (plane strain).
 
@@ -168,7 +174,8 @@ def block_problem(
 
     Args:
         friction: Coulomb coefficient mu_f (None: frictionless).
-        gamma0: Nitsche parameter; default 1e-3 / E (the scale of the ball test).
+        gamma0: Nitsche parameter; default 1e-3 / E (the scale of the ball test), or 1e-3
+            with ``gamma0_scaling="E"``.
     """
     mesh, tags = block_mesh(width, height, nx, ny, comm=comm)
     material = Material(E=E, nu=0.0, rho=rho)
@@ -177,9 +184,10 @@ def block_problem(
         tags,
         material,
         degree=degree,
-        gamma0=1e-3 / E if gamma0 is None else gamma0,
+        gamma0=(1e-3 / E if gamma0_scaling == "absolute" else 1e-3) if gamma0 is None else gamma0,
         nitsche_theta=nitsche_theta,
         friction=friction,
+        gamma0_scaling=gamma0_scaling,
     )
     problem.add_obstacle(PlaneObstacle(point=[0.0, 0.0], normal=[0.0, 1.0]), BLOCK_CONTACT)
     problem.add_body_force([rho * gravity * slope, -rho * gravity])

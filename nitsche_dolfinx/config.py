@@ -14,12 +14,14 @@ Nitsche settings, the time scheme and the output::
 
     [nitsche]
     gamma0 = 1e-6
+    gamma0_scaling = "absolute"     # gamma_h = gamma0 h; "E": gamma_h = gamma0 h / E
     theta = 1.0                     # the variant Theta
 
     [scheme]
     name = "hybrid"                 # hybrid | theta | newmark | cn
     dt = 0.005
     t_end = 1.0
+    max_step_cuts = 5               # a failing step is halved down to dt / 2^5
 
     [[obstacle]]
     type = "plane"
@@ -77,7 +79,11 @@ SCHEMA: dict[str, Any] = {
         "mu": (_NUMBER, False),
         "rho": (_NUMBER, False),
     },
-    "nitsche": {"gamma0": (_NUMBER, False), "theta": (_NUMBER, False)},
+    "nitsche": {
+        "gamma0": (_NUMBER, False),
+        "gamma0_scaling": (str, False),
+        "theta": (_NUMBER, False),
+    },
     "scheme": {
         "name": (str, False),
         "dt": (_NUMBER, True),
@@ -85,6 +91,7 @@ SCHEMA: dict[str, Any] = {
         "theta": (_NUMBER, False),
         "beta": (_NUMBER, False),
         "gamma": (_NUMBER, False),
+        "max_step_cuts": (int, False),
     },
     "obstacle": [
         {
@@ -245,10 +252,12 @@ def _has_type(value, expected) -> bool:
 #: Where each parameter of :mod:`nitsche_dolfinx.parameters` is set in a configuration.
 _KEYS = {
     "gamma0": "[nitsche] gamma0",
+    "gamma0_scaling": "[nitsche] gamma0_scaling",
     "nitsche_theta": "[nitsche] theta",
     "scheme": "[scheme] name",
     "dt": "[scheme] dt",
     "t_end": "[scheme] t_end",
+    "max_step_cuts": "[scheme] max_step_cuts",
     "theta": "[scheme] theta",
     "beta": "[scheme] beta",
     "gamma": "[scheme] gamma",
@@ -323,9 +332,13 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
         scheme = make_scheme(
             s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
         )
-        time_stepping = TimeStepping(s["dt"], s["t_end"])
+        time_stepping = TimeStepping(s["dt"], s["t_end"], s.get("max_step_cuts", 5))
     with _reported_at("[nitsche]", source):
-        contact = NitscheParameters(nitsche.get("gamma0", 1e-3), nitsche.get("theta", 1.0))
+        contact = NitscheParameters(
+            nitsche.get("gamma0", 1e-3),
+            nitsche.get("theta", 1.0),
+            gamma0_scaling=nitsche.get("gamma0_scaling", "absolute"),
+        )
     with _reported_at("[mesh]", source):
         discretisation = Discretisation(mesh_table.get("degree", 1))
     obstacles = _obstacles(config, source)
@@ -342,6 +355,7 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
             time_stepping.t_end,
             petsc_options=config.get("petsc"),
             progress=progress,
+            max_step_cuts=time_stepping.max_step_cuts,
         )
 
 

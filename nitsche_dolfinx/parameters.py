@@ -94,10 +94,13 @@ def require_choice(value, choices, name: str, what: str) -> None:
 @dataclass(frozen=True)
 class TimeStepping:
     """The time step tau and the final time T: 0 < dt <= t_end, both finite. T is reached
-    exactly: when it is not a multiple of tau, the last step is shorter."""
+    exactly: when it is not a multiple of tau, the last step is shorter. A step whose
+    Newton solve fails is halved, down to tau / 2^max_step_cuts, before the run stops
+    (docs/method.md section 8)."""
 
     dt: float
     t_end: float
+    max_step_cuts: int = 5
 
     def __post_init__(self):
         require(_finite(self.dt) and self.dt > 0, "dt", self.dt, "the time step must be positive")
@@ -113,6 +116,14 @@ class TimeStepping:
             "t_end",
             self.t_end,
             f"t_end / dt = {steps:.3g} steps, more than {MAX_STEPS:.0e}: check dt={self.dt!r}",
+        )
+        require(
+            isinstance(self.max_step_cuts, (int, np.integer))
+            and not isinstance(self.max_step_cuts, bool)
+            and 0 <= self.max_step_cuts <= 30,
+            "max_step_cuts",
+            self.max_step_cuts,
+            "must be an integer from 0 to 30",
         )
 
     @property

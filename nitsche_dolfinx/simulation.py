@@ -18,8 +18,6 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from .checkpoint import (
     CheckpointError,
     RunInterrupted,
@@ -33,7 +31,7 @@ from .history import HISTORY_COLUMNS, History
 from .linear_solvers import linear_solver as linear_solver_preset
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
-from .parameters import OutputParameters, TimeStepping, require
+from .parameters import OutputParameters, TimeStepping
 from .schemes import TimeScheme
 from .solver import SolverError, rigid_body_modes
 from .stepper import NitscheStepper, Stepper
@@ -109,13 +107,7 @@ class Simulation:
         linear_solver: str | None = None,
         max_step_cuts: int = 5,
     ):
-        time_stepping = TimeStepping(dt, t_end)
-        require(
-            isinstance(max_step_cuts, (int, np.integer)) and 0 <= max_step_cuts <= 30,
-            "max_step_cuts",
-            max_step_cuts,
-            "must be an integer from 0 to 30",
-        )
+        time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         self.max_step_cuts = int(max_step_cuts)
         preset = None
         if linear_solver is not None:

@@ -78,3 +78,33 @@ def test_gamma0_out_of_range_is_refused(E, gamma0, scaling, message):
         ContactProblem(
             mesh, tags, Material(E=E, nu=0.3, rho=1.0), gamma0=gamma0, gamma0_scaling=scaling
         )
+
+
+def test_configuration_takes_gamma0_without_units(tmp_path):
+    """``[nitsche] gamma0_scaling = "E"`` with gamma0 = 1e-3 is the shipped ring's
+    gamma0 = 1e-6 at E = 1000, through the impact; ``[scheme] max_step_cuts`` is read."""
+    from runs import ring_config
+
+    from nitsche_dolfinx.config import build_simulation, load_config
+
+    ground = {"point = [0.0, 0.0]": "point = [0.0, 0.0995]"}  # contact at once
+    dimensionless = {
+        **ground,
+        "gamma0 = 1e-6": 'gamma0 = 1e-3\ngamma0_scaling = "E"',
+        'name = "hybrid"': 'name = "hybrid"\nmax_step_cuts = 0',
+    }
+    runs = []
+    for name, replace in (("absolute", ground), ("E", dimensionless)):
+        folder = tmp_path / name
+        folder.mkdir()
+        config = load_config(ring_config(str(folder), replace, t_end=0.1))
+        simulation = build_simulation(config, progress=False)
+        runs.append((simulation, simulation.run()))
+    (absolute, a), (scaled, b) = runs
+    assert scaled.problem.gamma0_scaling == "E" and absolute.problem.gamma0_scaling == "absolute"
+    assert (scaled.max_step_cuts, absolute.max_step_cuts) == (0, 5)
+    assert max(a["contact_force"]) > 0
+    np.testing.assert_array_equal(a["newton_iterations"], b["newton_iterations"])
+    for column in SCALES:
+        scale = np.abs(a[column]).max()
+        np.testing.assert_allclose(b[column], a[column], rtol=0, atol=1e-10 * scale, err_msg=column)
