@@ -4,10 +4,10 @@ as one line.
 
 Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
 ``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--gamma0-scaling``,
-``--degree``, ``--dt``, ``--t-end``, ``--max-step-cuts``); :func:`add_method_arguments` adds them with the demo's defaults and
-:func:`method_parameters` turns them into the validated parameter objects of
-:mod:`nitsche_dolfinx.parameters` before anything is computed. A bad value is
-reported under the flag that gave it (``--gamma0 0: ...``).
+``--degree``, ``--dt``, ``--t-end``, ``--max-step-cuts``); :func:`add_method_arguments`
+adds them with the demo's defaults and :func:`method_parameters` turns them into the
+validated parameter objects of :mod:`nitsche_dolfinx.parameters` before anything is
+computed. A bad value is reported under the flag that gave it (``--gamma0 0: ...``).
 :func:`add_run_arguments` adds ``--checkpoint-every`` and ``--restart``.
 
 :func:`one_line_errors` stops a demo with one line naming the problem, never a
