@@ -222,15 +222,30 @@ class ContactProblem:
         """What may make a failing contact step converge, in words ('' without contact)."""
         if not self.contacts or self.method == "mixed":
             return ""
-        gamma0 = float(np.asarray(self.gamma0.value))
-        dimensionless = gamma0 * self.material.E if self.gamma0_scaling == "absolute" else gamma0
         return (
-            f"gamma0 * E = {dimensionless:.3g}: a smaller gamma0 (about 1e-3 / E suits P1 "
-            "and P2, see docs/method.md section 10) or a smaller dt may let Newton converge"
-            if self.gamma0_scaling == "absolute"
-            else f"gamma0 = {gamma0:.3g} (scaled by E): a smaller gamma0 (about 1e-3 suits P1 "
+            f"{self._gamma0_in_words()}: a smaller gamma0 ({self._suggested_gamma0()} suits P1 "
             "and P2, see docs/method.md section 10) or a smaller dt may let Newton converge"
         )
+
+    def stability_hint(self) -> str:
+        """What may bring a run whose E_Theta lost control of the energy back (docs/method.md
+        section 8)."""
+        if not self.contacts:
+            return "no contact term: check the loads and the initial values"
+        return (
+            f"{self._gamma0_in_words()} is beyond the stability limit of this mesh and degree: "
+            f"use a smaller gamma0 ({self._suggested_gamma0()}, see docs/method.md section 10); "
+            "a smaller dt does not help"
+        )
+
+    def _gamma0_in_words(self) -> str:
+        gamma0 = float(np.asarray(self.gamma0.value))
+        if self.gamma0_scaling == "absolute":
+            return f"gamma0 * E = {gamma0 * self.material.E:.3g}"
+        return f"gamma0 = {gamma0:.3g} (scaled by E)"
+
+    def _suggested_gamma0(self) -> str:
+        return "about 1e-3 / E" if self.gamma0_scaling == "absolute" else "about 1e-3"
 
     def set_initial_conditions(self, displacement=None, velocity=None) -> None:
         """Initial displacement u0 and velocity v0 (zero when omitted).

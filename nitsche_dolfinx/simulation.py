@@ -337,6 +337,8 @@ class _Run:
         try:
             sim.stepper.step(t_target, cuts)
         except SolverError as error:
+            if not error.cut_may_help:
+                raise
             if cuts >= sim.max_step_cuts:
                 hint = sim.problem.solver_hint()
                 if hint:

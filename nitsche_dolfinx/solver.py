@@ -63,7 +63,10 @@ class SolverError(RuntimeError):
         residual_norm: The last residual norm.
         step: The time step that failed, when raised by a simulation (else None).
         t: The time that step was heading for (else None).
+        cut_may_help: Whether smaller steps may succeed where this one failed.
     """
+
+    cut_may_help = True
 
     def __init__(self, reason: int, iterations: int, residual_norm: float):
         self.reason = reason

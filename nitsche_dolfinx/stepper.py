@@ -31,13 +31,65 @@ from .solver import SNESSolver, SolverError
 from .timelevels import TimeLevels
 
 __all__ = [
+    "ENERGY_CONTROL",
     "NitscheStepper",
     "Stepper",
+    "UncontrolledStep",
     "check_initial_gap",
     "initial_acceleration",
     "interpolate_initial",
     "massless_velocity",
 ]
+
+
+#: The least share of the kinetic plus elastic energy that E_Theta - potential must keep at
+#: a new level (docs/method.md section 8). Measured: at least 0.9999 in the healthy runs
+#: of the package (ring, friction block, every scheme); a P2 box whose gamma0 is beyond
+#: the stability limit falls to 0.67, then 0.07, while E grows without bound.
+ENERGY_CONTROL = 0.5
+
+
+class UncontrolledStep(SolverError):
+    """A step whose Newton solve converged to a state that E_Theta no longer controls
+    (E_Theta - potential < :data:`ENERGY_CONTROL` (kinetic + elastic)), or whose
+    diagnostics are not finite: the discrete problem has left its stability range.
+
+    ``cut_may_help`` is False for lost energy control: it is a matter of gamma0 and the
+    mesh, not of the step size.
+    """
+
+    def __init__(self, values: dict[str, float], iterations: int, hint: str):
+        self.values = values
+        self.cut_may_help = not _finite_values(values)
+        self._hint_text = hint
+        super().__init__(0, iterations, float("nan"))
+        self.reason_name = "NOT_FINITE" if self.cut_may_help else "ENERGY_NOT_CONTROLLED"
+
+    def _message(self) -> str:
+        where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
+        values = self.values
+        if self.cut_may_help:
+            return f"{where}the converged state is not finite (E = {values['energy']:.6g})"
+        kinetic_elastic = values["kinetic"] + values["elastic"]
+        controlled = values["energy_theta"] - values["potential"]
+        return (
+            f"{where}E_Theta no longer controls the energy: E_Theta - potential = "
+            f"{controlled:.6g} for kinetic + elastic = {kinetic_elastic:.6g} (E = "
+            f"{values['energy']:.6g}); {self._hint_text}"
+        )
+
+
+def _finite_values(values: dict[str, float]) -> bool:
+    return all(np.isfinite(value) for key, value in values.items() if key != "penetration_max")
+
+
+def energy_controlled(values: dict[str, float]) -> bool:
+    """Whether the diagnostics of a level are finite and E_Theta - potential keeps at least
+    :data:`ENERGY_CONTROL` of kinetic + elastic (docs/method.md section 8)."""
+    if not _finite_values(values):
+        return False
+    kinetic_elastic = values["kinetic"] + values["elastic"]
+    return values["energy_theta"] - values["potential"] >= ENERGY_CONTROL * kinetic_elastic
 
 
 class Stepper(Protocol):
@@ -213,7 +265,8 @@ class NitscheStepper(TimeLevels):
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
         self._energy_before = None  # E_Theta^n of the last step
-        self._energy_cache = None  # (step index, E_Theta) of the last state()
+        self._diagnostics_cache = None  # (step index, diagnostics) of the current level
+        self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
         self._massless = problem.massless_dofs()
         self._initialize(petsc_options)
@@ -269,8 +322,7 @@ class NitscheStepper(TimeLevels):
 
     def state(self) -> dict[str, float]:
         """Diagnostics at the current time level, identical on every rank."""
-        values = {"t": self.t, **self.diagnostics.compute()}
-        self._energy_cache = (self.step_index, values["energy_theta"])
+        values = {"t": self.t, **self._diagnostics()}
         values["friction_dissipation"] = self.friction_dissipation
         values["energy_balance_residual"] = (
             0.0
@@ -308,7 +360,9 @@ class NitscheStepper(TimeLevels):
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
             self.friction_dissipation = self._friction.work(u1 - u)
-        u[:], v[:], a[:] = u1, v1, a1
+        for previous, new, array in zip(self._previous, (u1, v1, a1), (u, v, a)):
+            previous[:], array[:] = array, new
+        self._check_energy_control(iterations, t_new)
         self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
         self.newton_iterations = iterations
@@ -322,11 +376,29 @@ class NitscheStepper(TimeLevels):
             self._dt.value = dt
             self.solver.update_constant_terms()
 
+    def _diagnostics(self) -> dict[str, float]:
+        """The diagnostics of the current level, computed once per level."""
+        if self._diagnostics_cache is None or self._diagnostics_cache[0] != self.step_index:
+            self._diagnostics_cache = (self.step_index, self.diagnostics.compute())
+        return self._diagnostics_cache[1]
+
     def _energy_theta(self) -> float:
-        """E_Theta at the current level (from the last state() when it was at this level)."""
-        if self._energy_cache is not None and self._energy_cache[0] == self.step_index:
-            return self._energy_cache[1]
-        return self.diagnostics.compute()["energy_theta"]
+        """E_Theta at the current level."""
+        return self._diagnostics()["energy_theta"]
+
+    def _check_energy_control(self, iterations: int, t_new: float) -> None:
+        """Refuse the new state just written to u, v, a if E_Theta does not control it
+        (:func:`energy_controlled`): u^n, v^n, a^n are put back and
+        :class:`UncontrolledStep` raised."""
+        values = self.diagnostics.compute()
+        if energy_controlled(values):
+            self._diagnostics_cache = (self.step_index + 1, values)
+            return
+        for previous, function in zip(self._previous, (self.u, self.v, self.a)):
+            function.x.array[:] = previous
+        error = UncontrolledStep(values, iterations, self.problem.stability_hint())
+        error.add_context(step=self.step_index + 1, t=t_new)
+        raise error
 
     def _solve(self) -> int:
         """The step's Newton solve from the current ``w``; returns the Newton iterations.
@@ -382,6 +454,7 @@ class NitscheStepper(TimeLevels):
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
+        self._diagnostics_cache = None  # the loaded state's are computed anew
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0
         self.problem.set_time(t)

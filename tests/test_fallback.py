@@ -16,7 +16,9 @@ from nitsche_dolfinx import (
     ThetaScheme,
     load_mesh,
 )
-from nitsche_dolfinx.cases import bar_simulation, impact_problem
+from nitsche_dolfinx import stepper as stepper_module
+from nitsche_dolfinx.cases import bar_simulation, block_problem, impact_problem
+from nitsche_dolfinx.stepper import UncontrolledStep
 
 
 def test_t_end_is_reached_exactly_by_a_shorter_last_step():
@@ -72,6 +74,49 @@ def test_a_step_that_cannot_converge_stops_the_run_after_the_cuts(tmp_path):
     assert "also with steps of dt/4; gamma0 * E = 0.05: a smaller gamma0" in str(info.value)
     assert info.value.checkpoint.step == 0
     assert simulation.t == 0.0
+
+
+def _falling_block(gamma0):
+    """A P2 block (E = 1000) dropped on the plane at speed 1, gamma0 scaled by E."""
+    problem = block_problem(
+        friction=None, v0=0.0, E=1000.0, nx=4, ny=2, gamma0=gamma0, gamma0_scaling="E"
+    )
+    problem.set_initial_conditions(velocity=[0.0, -1.0])
+    return Simulation(problem, HybridScheme(), dt=0.01, t_end=0.1)
+
+
+def test_gamma0_beyond_the_stability_limit_stops_the_run(tmp_path, monkeypatch):
+    """gamma0 = 1 (scaled by E) on a P2 block: E_Theta, conserved or decreasing, stops
+    controlling E, which then grows without bound while Newton converges at every step. The
+    first such step is refused with the gamma0 named, without cutting it (a smaller step
+    does not help), and the last controlled level is the checkpoint."""
+    simulation = _falling_block(1.0)
+    with pytest.raises(UncontrolledStep) as info:
+        simulation.run(out=str(tmp_path))
+    error = info.value
+    assert error.reason_name == "ENERGY_NOT_CONTROLLED" and not error.cut_may_help
+    assert error.step == 2 and error.t == pytest.approx(0.02)
+    assert "gamma0 = 1 (scaled by E) is beyond the stability limit" in str(error)
+    assert error.checkpoint.step == 1 and simulation.t == pytest.approx(0.01)
+    written = np.loadtxt(tmp_path / "history.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert written.shape[0] == 2 and np.all(np.isfinite(written))
+    assert simulation.state()["energy"] < 2.0  # u, v, a are those of t = 0.01 again
+
+    # without the check, the same run goes on to an energy of 1e14
+    monkeypatch.setattr(stepper_module, "ENERGY_CONTROL", -np.inf)
+    history = _falling_block(1.0).run()
+    assert history["energy"][-1] > 1e12 * history["energy"][0]
+    assert history.cut_steps() == 0
+
+
+@pytest.mark.parametrize("gamma0, share", [(0.01, 0.98), (0.1, 0.75)])
+def test_a_stable_gamma0_keeps_the_energy_controlled(gamma0, share):
+    """Below the limit (between 0.1 and 0.2 on this mesh: 0.2 grows to 1e303 by t = 1.7)
+    E_Theta - potential keeps a share 1 - O(gamma0) of kinetic + elastic."""
+    history = _falling_block(gamma0).run()
+    controlled = history["energy_theta"] - history["potential"]
+    assert np.all(controlled >= share * (history["kinetic"] + history["elastic"]))
+    assert max(history["contact_force"]) > 0
 
 
 def test_lagged_factorisation_is_refreshed_when_gmres_fails():

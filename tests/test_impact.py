@@ -54,13 +54,16 @@ def test_hybrid_energy_drift_under_two_percent(ball):
 
 
 def test_penetration_decreases_with_gamma0():
-    """Measured on the disk (same physics in 2D): max penetration over [0, 14]."""
-    penetrations = [
-        run(dim=2, gamma0=gamma0, t_end=14.0)["penetration_max"].max()
-        for gamma0 in (1e-2, 1e-3, 1e-4)
-    ]
+    """Measured on the disk (same physics in 2D): max penetration over [0, 14]. (gamma0 =
+    1e-2 and 3e-3, gamma0 E = 0.5 and 0.15, are beyond the stability limit of this P2 mesh:
+    the free flight itself grows to E = 1e21 and more; such runs now stop, see
+    tests/test_fallback.py.)"""
+    histories = [run(dim=2, gamma0=gamma0, t_end=14.0) for gamma0 in (1e-3, 3e-4, 1e-4)]
+    penetrations = [history["penetration_max"].max() for history in histories]
     assert penetrations[0] > 0
     assert penetrations[0] > penetrations[1] > penetrations[2]
+    for history in histories:  # E stays near E(0) (E_Theta is conserved)
+        assert np.abs(history["energy"] / history["energy"][0] - 1).max() < 0.02  # 1.03e-2
 
 
 @pytest.mark.mpi
