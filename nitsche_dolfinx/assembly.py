@@ -160,6 +160,13 @@ class AffineCellSplit:
         if self.B is not None:
             A.axpy(1.0, self.B, same)
 
+    def add_into(self, A: PETSc.Mat) -> None:
+        """A += K_bc + B, for an A whose sparsity holds theirs (and more)."""
+        subset = PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN
+        A.axpy(1.0, self.K_bc, subset)
+        if self.B is not None:
+            A.axpy(1.0, self.B, subset)
+
     def petsc_objects(self) -> list:
         objects = [self.K, self.K_bc, self.F0, self._Kx]
         objects += [m for m in (self.B, self.B_last) if isinstance(m, PETSc.Mat)]

@@ -1,4 +1,5 @@
-"""Energies and contact diagnostics of docs/method.md section 4, reduced over MPI every step.
+"""Energies, momentum and contact diagnostics of docs/method.md section 4, reduced over MPI
+every step.
 
     E^h       = 1/2 ||sqrt(rho) u'||^2 + 1/2 a(u, u) - L(u)
     E_Theta^h = E^h - Theta/2 ( ||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P_gamma(u)]_+||^2 )
@@ -114,6 +115,7 @@ class Penetration:
 
     def __init__(self, model, u: fem.Function):
         self.comm = model.mesh.comm
+        self.model = model
         # u_n - g at the dofs of Gamma_C, interpolated into a scalar space
         self._fields = []
         if model.contacts:
@@ -128,6 +130,7 @@ class Penetration:
     def max(self) -> float:
         """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""
         local = -np.inf
+        self.model.update_partners()
         for field, expression, dofs in self._fields:
             field.interpolate(expression)
             if len(dofs):
@@ -146,6 +149,7 @@ class Diagnostics:
 
     def __init__(self, model, u: fem.Function, v: fem.Function):
         self.comm = model.mesh.comm
+        self.model = model
         self.u, self.v = u, v
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
@@ -158,6 +162,11 @@ class Diagnostics:
         self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
         self._stiffness.assemble()
         self._work = self._mass.createVecLeft()
+        self._bs = model.V.dofmap.index_map_bs
+        #: the total linear momentum, the rows of M v summed by component
+        self._momentum_names = (
+            ["momentum"] if self._bs == 1 else [f"momentum_{c}" for c in "xyz"[: self._bs]]
+        )
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         forms = {
             "potential": -model.load(u),
@@ -176,9 +185,12 @@ class Diagnostics:
 
     def compute(self) -> dict[str, float]:
         """All diagnostics at the current state, identical on every rank."""
+        self.model.update_partners()
         local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
         values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
         values["kinetic"] = self._quadratic(self._mass, self.v)
+        momentum = self._work.array.reshape(-1, self._bs).sum(axis=0)  # M v, by component
+        momentum = self.comm.allreduce(momentum, op=MPI.SUM)
         values["elastic"] = self._quadratic(self._stiffness, self.u)
         energy = values["kinetic"] + values["elastic"] + values["potential"]
         return {
@@ -190,4 +202,5 @@ class Diagnostics:
             "contact_force": values["contact_force"],
             "contact_area": values["contact_area"],
             "penetration_max": self.penetration.max(),
+            **dict(zip(self._momentum_names, momentum.tolist())),
         }

@@ -36,6 +36,8 @@ from .parameters import (
     Discretisation,
     NitscheParameters,
     check_gamma0,
+    require,
+    require_choice,
 )
 
 __all__ = ["CONTACT_METHODS", "MASS_MATRICES", "ContactProblem", "TimeDependentValue", "as_array"]
@@ -218,6 +220,59 @@ class ContactProblem:
         self.contact_tags.append(tag)
         return contact
 
+    def add_contact_pair(self, tag_a: int, tag_b: int, variant: str = "unbiased") -> list:
+        """Add contact between the facets ``tag_a`` and ``tag_b`` of two bodies (or of two
+        parts of one body) of the mesh, by Nitsche's method (docs/method.md section 12).
+
+        Each node of a slave surface is paired once, in the reference configuration, with
+        its closest point on the other surface. ``variant="unbiased"`` (the default):
+        each surface is slave in turn with weight 1/2, and the stresses of both bodies
+        enter; ``"biased"``: ``tag_a`` is the slave, and only its stress enters.
+        Frictionless, Nitsche only. Returns the :class:`~nitsche_dolfinx.pairs.PairContact`
+        halves.
+        """
+        from .pairs import CONTACT_PAIR_VARIANTS, PairContact, Pairing
+
+        require_choice(variant, CONTACT_PAIR_VARIANTS, "variant", "contact pair variant")
+        require(
+            self.method == "nitsche" and self.friction is None,
+            "method",
+            self.method if self.friction is None else "friction",
+            "contact between bodies is frictionless Nitsche contact so far",
+        )
+        require(tag_a != tag_b, "tag_b", tag_b, f"a pair needs two surfaces, got {tag_a} twice")
+        facets = {tag: self.facets(tag) for tag in (tag_a, tag_b)}
+        sides = [(tag_a, tag_b)] if variant == "biased" else [(tag_a, tag_b), (tag_b, tag_a)]
+        weight = 1.0 if variant == "biased" else 0.5
+        halves = []
+        for slave, master in sides:
+            pairing = Pairing(self.V, facets[slave], facets[master])
+            contact = PairContact(
+                pairing, self.ds(slave), self.stress, self.gamma_h, self.nitsche_theta, weight
+            )
+            self.contacts.append(contact)
+            self.contact_tags.append(slave)
+            halves.append(contact)
+        return halves
+
+    @property
+    def pairs(self) -> list:
+        """The halves of the contact pairs (:meth:`add_contact_pair`)."""
+        from .pairs import PairContact
+
+        return [contact for contact in self.contacts if isinstance(contact, PairContact)]
+
+    def track_partners(self, *functions) -> None:
+        """Give the Functions of a state their partners on every contact pair (the
+        stepper's displacement, velocity, acceleration and unknown)."""
+        for pair in self.pairs:
+            pair.track(functions)
+
+    def update_partners(self) -> None:
+        """Recompute the partners of the tracked Functions (before evaluating a form)."""
+        for pair in self.pairs:
+            pair.update()
+
     def solver_hint(self) -> str:
         """What may make a failing contact step converge, in words ('' without contact)."""
         if not self.contacts or self.method == "mixed":
@@ -320,7 +375,7 @@ class ContactProblem:
         """Whether the Jacobian of every time scheme is symmetric: without friction, with
         the symmetric variant Theta = 1 or with penalty (whose test term is v_n).
         The stepper reads it once, when it is built."""
-        if self.frictional:
+        if self.frictional or self.pairs:
             return False
         return self.method == "penalty" or float(np.asarray(self.nitsche_theta.value)) == 1.0
 

@@ -185,6 +185,10 @@ class SNESSolver:
             terms are inactive: affine in ``u``, with a Jacobian that does not change.
             For contact, the normal force ``int [P_gamma(u)]_+ q``. While it is zero
             on every cell, the facet Jacobian is not re-assembled.
+        coupling: With ``affine_cell_terms``: terms of F and J beyond the UFL forms, for
+            contact between two bodies (:class:`~nitsche_dolfinx.pairs.PairCoupling`):
+            ``update(x)`` before each residual, ``add_residual(b)``, and
+            ``jacobian_changed()`` / ``add_jacobian(A)`` / ``union_pattern(matrix)``.
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
             Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
@@ -209,6 +213,7 @@ class SNESSolver:
         mass_diagonal: PETSc.Vec | None = None,
         facet_activity: ufl.Form | None = None,
         symmetric: bool = False,
+        coupling=None,
     ):
         self.u = u
         self.bcs = list(bcs)
@@ -236,6 +241,9 @@ class SNESSolver:
             if affine_cell_terms
             else None
         )
+        if coupling is not None and self._split is None:
+            raise ValueError("contact between bodies needs affine_cell_terms=True")
+        self._coupling = coupling
         self._A = self._new_matrix(symmetric)
         if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
             self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
@@ -304,6 +312,9 @@ class SNESSolver:
             matrix = self._split.K_bc.duplicate()  # zero values
         else:
             matrix = self.J_forms.create_matrix()
+        if self._coupling is not None:  # and the coupling between the bodies' dofs
+            template, matrix = matrix, self._coupling.union_pattern(matrix)
+            template.destroy()
         if symmetric:
             matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         return matrix
@@ -330,6 +341,8 @@ class SNESSolver:
 
     def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        if self._coupling is not None:
+            self._coupling.update(x)
         x.copy(compat.petsc_vector(self.u))
         self.u.x.scatter_forward()
         with b.localForm() as b_local:
@@ -344,6 +357,8 @@ class SNESSolver:
             self._split.add_cell_residual(x, b)
         elif self._D is not None:
             add_diagonal_product(b, self._D, x)
+        if self._coupling is not None:
+            self._coupling.add_residual(b)
         compat.set_bc(b, self.bcs, x, -1.0)
 
     def _converged(self, snes, iteration: int, norms) -> int:
@@ -371,6 +386,14 @@ class SNESSolver:
             return reasons.DIVERGED_MAX_IT  # cycling between contact states: no progress
         return reasons.ITERATING
 
+    def _jacobian_terms_changed(self) -> bool:
+        """Assemble the Jacobian's non-constant terms (facets, coupling between bodies);
+        True if any differs from the last assembly."""
+        changed = self._split.facet_jacobian_changed(self.skip_inactive_facets)
+        if self._coupling is not None:
+            changed = self._coupling.jacobian_changed() or changed
+        return changed
+
     def _exact_before(self, iteration: int) -> bool:
         """Whether iterate ``iteration - 1`` solved the step's equation exactly (up to
         round-off): it came from a full Newton step with the Jacobian that it has itself.
@@ -397,12 +420,15 @@ class SNESSolver:
             if self._D is not None:
                 A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
                 A.assemble()
-        elif self._split.facet_jacobian_changed(
-            self.skip_inactive_facets
-        ):  # always at the first evaluation
+        elif self._jacobian_terms_changed():  # always at the first evaluation
             # every Jacobian is K_bc + B, summed in that order: a run restarted from a
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
-            self._split.sum_into(A)
+            if self._coupling is None:
+                self._split.sum_into(A)
+            else:  # A has the wider sparsity of the coupling between bodies
+                A.zeroEntries()
+                self._split.add_into(A)
+                self._coupling.add_jacobian(A)
         else:
             self._jacobian_changes[-1] = False
             return  # A unchanged: its PETSc state stays, so the factorisation is reused
@@ -560,6 +586,8 @@ class SNESSolver:
             objects.append(self._P)
         if self._split is not None:
             objects.extend(self._split.petsc_objects())
+        if self._coupling is not None:
+            objects.extend(self._coupling.petsc_objects())
         for obj in objects:
             obj.destroy()
         for name in self._user_option_names:

@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 from . import compat
 from .diagnostics import Diagnostics
-from .friction import FrictionOutput, GuardedNewton
+from .friction import ContactTerms, FrictionOutput, GuardedNewton
 from .material import von_mises
 from .model import ContactProblem, as_array
 from .parameters import ParameterError, TimeStepping, require
@@ -164,6 +164,24 @@ def check_initial_gap(penetration: float, mesh) -> None:
         )
 
 
+def check_pairs_apart(problem: ContactProblem, u: fem.Function) -> None:
+    """Refuse contact pairs pressed together at t = 0 (a positive contact force): the
+    initial acceleration leaves out the reaction on the master side."""
+    if not problem.pairs:
+        return
+    problem.update_partners()
+    force = sum(pair.force(u) for pair in problem.pairs)
+    value = problem.mesh.comm.allreduce(fem.assemble_scalar(fem.form(force)), op=MPI.SUM)
+    if value > 0:
+        raise ParameterError(
+            "initial_displacement",
+            value,
+            "the bodies of a contact pair must start apart",
+            label=f"initial state: the bodies of a contact pair press on each other "
+            f"(contact force {value:.3g})",
+        )
+
+
 def initial_acceleration(
     problem: ContactProblem, a: fem.Function, stiffness, bc_dofs, petsc_options=None
 ) -> None:
@@ -249,6 +267,7 @@ class NitscheStepper(TimeLevels):
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
         self.w = fem.Function(V, name="unknown")
+        problem.track_partners(self.u, self.v, self.a, self.w)  # contact between bodies
         self.newton_iterations, self.step_seconds = 0, 0.0
 
         fdim = problem.mesh.topology.dim - 1
@@ -279,7 +298,8 @@ class NitscheStepper(TimeLevels):
         if problem.frictional and guard_friction:
             self._guarded = GuardedNewton(problem, scheme, state)
             model = self._guarded.model
-        F = scheme.residual(model, *state, ufl.TestFunction(problem.V))
+        test = ufl.TestFunction(problem.V)
+        F = scheme.residual(model, *state, test)
         activity = None
         if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
             cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
@@ -296,7 +316,28 @@ class NitscheStepper(TimeLevels):
             preconditioner_lag=lag if reuse_jacobian else 0,
             facet_activity=activity,
             symmetric=problem.symmetric_jacobian,
+            coupling=self._pair_coupling(F, state, test, bcs),
         )
+
+    def _pair_coupling(self, F, state, test, bcs):
+        """The terms of contact between bodies beyond the UFL forms (None without pairs):
+        each pair's partner-tested residual, written by the scheme like its own terms."""
+        problem = self.problem
+        if not problem.pairs:
+            return None
+        from .pairs import PairCoupling
+
+        def partner_term(pair, u, velocity, force, v):
+            return pair.partner_term(force, v)
+
+        residuals = [
+            self.scheme.residual(ContactTerms([pair], partner_term), *state, test)
+            for pair in problem.pairs
+        ]
+        bs = problem.V.dofmap.index_map_bs
+        nodes = [dofs for dofs, _ in self._bc_dofs]
+        dofs = np.concatenate([(n[:, None] * bs + np.arange(bs)).ravel() for n in nodes] or [[]])
+        return PairCoupling(problem.pairs, F, residuals, self.w, dofs.astype(np.int64))
 
     def _set_dirichlet(self, target: np.ndarray, t: float) -> None:
         """Write the Dirichlet values at time t into the dof array ``target``."""
@@ -311,6 +352,7 @@ class NitscheStepper(TimeLevels):
         interpolate_initial(self.v, problem.initial_velocity, gdim)
         self._set_dirichlet(self.u.x.array, 0.0)
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
+        check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
         initial_acceleration(
             problem,

@@ -1,0 +1,458 @@
+"""Contact between two deformable bodies by Nitsche's method (docs/method.md section 12).
+
+A pair is a slave surface Gamma_1 and a master surface Gamma_2, on one mesh (two bodies
+may be disconnected parts of it). Each node of Gamma_1 is paired once, in the reference
+configuration, with its closest point on Gamma_2 (:class:`Pairing`). That pairing is a
+matrix T: (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i, zero elsewhere, so that the
+partner displacement on Gamma_1 is the interpolant of u o pi, a function of the same
+space. The contact law is that of a rigid obstacle (:class:`~nitsche_dolfinx.contact.
+NitscheContact`, the hybrid switch included) with
+
+    u_n = (u - T u) . n_c,   g = (pi(x) - x) . n_c,   n_c = -(outer normal of Gamma_2 at pi(x)),
+
+and the test projection P_Thgamma(v) = (v - T v) . n_c - Theta gamma_h sigma_n(v). The part
+of the residual tested by T v is assembled as a vector G on the slave side and added as
+T^T G; the Jacobian is exact: with w~ = T w the partner of the scheme's unknown,
+
+    J = dF/dw + (dF/dw~) T + T^T (dG/dw) + T^T (dG/dw~) T.
+
+The unbiased variant is two biased pairs, each surface slave in turn, each with weight 1/2.
+"""
+
+from __future__ import annotations
+
+import basix
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+from ufl.algorithms import extract_coefficients
+
+from . import compat
+from .contact import NitscheContact
+
+__all__ = ["CONTACT_PAIR_VARIANTS", "PairContact", "PairCoupling", "Pairing"]
+
+#: ``"unbiased"``: each surface slave in turn with weight 1/2; ``"biased"``: the first
+#: surface is the slave, and only its stress enters.
+CONTACT_PAIR_VARIANTS = ("unbiased", "biased")
+
+_NEWTON_STEPS = 8  # Gauss-Newton steps of a closest-point projection onto a curved facet
+_CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
+
+
+def _basix_cell(mesh):
+    return getattr(basix.CellType, compat.cell_name(mesh))
+
+
+class _MasterSurface:
+    """The facets of Gamma_2 whose cell this rank owns, with what a closest-point
+    projection needs: the cell's geometry nodes and the facet's reference parametrisation
+    X(xi) = X0 + E xi."""
+
+    def __init__(self, V, facets: np.ndarray):
+        mesh = V.mesh
+        tdim, self.gdim = mesh.topology.dim, mesh.geometry.dim
+        fdim = tdim - 1
+        mesh.topology.create_connectivity(fdim, tdim)
+        mesh.topology.create_connectivity(tdim, fdim)
+        f2c, c2f = mesh.topology.connectivity(fdim, tdim), mesh.topology.connectivity(tdim, fdim)
+        owned_cells = mesh.topology.index_map(tdim).size_local
+        cell_type = _basix_cell(mesh)
+        reference = basix.geometry(cell_type)
+        facet_vertices = basix.topology(cell_type)[fdim]
+        self.geometry_element = basix.create_element(
+            basix.ElementFamily.P, cell_type, compat.geometry_degree(mesh),
+            basix.LagrangeVariant.equispaced,
+        )  # fmt: skip
+        self.element = basix.create_element(
+            basix.ElementFamily.P, cell_type, V.ufl_element().degree(),
+            basix.LagrangeVariant.equispaced,
+        )  # fmt: skip
+        geometry = compat.geometry_dofmap(mesh)
+        x = mesh.geometry.x[:, : self.gdim]
+        self.cells, self.origins, self.edges, self.nodes = [], [], [], []
+        for facet in facets:
+            cell = int(f2c.links(facet)[0])
+            if cell >= owned_cells:
+                continue
+            local = int(np.flatnonzero(c2f.links(cell) == facet)[0])
+            vertices = reference[facet_vertices[local]]
+            self.cells.append(cell)
+            self.origins.append(vertices[0])
+            self.edges.append((vertices[1:] - vertices[0]).T)  # (tdim, fdim)
+            self.nodes.append(x[geometry[cell]])
+        self.cells = np.asarray(self.cells, dtype=np.int32)
+        self.centroids = np.array(
+            [self._point(i, self._middle(i))[0] for i in range(len(self.cells))]
+        ).reshape(-1, self.gdim)
+
+    def _middle(self, i: int) -> np.ndarray:
+        fdim = self.edges[i].shape[1]
+        return np.full(fdim, 1.0 / (fdim + 1))
+
+    def _point(self, i: int, xi: np.ndarray):
+        """x(X(xi)) on facet i, and d x / d xi (gdim, fdim)."""
+        X = self.origins[i] + self.edges[i] @ xi
+        table = self.geometry_element.tabulate(1, X[None, :])[:, 0, :, 0]  # (1 + tdim, nodes)
+        nodes = self.nodes[i]
+        return table[0] @ nodes, (table[1:] @ nodes).T @ self.edges[i]
+
+    def closest(self, points: np.ndarray):
+        """For each point: the distance to the nearest facet of this rank (inf if none),
+        that facet's index, the reference point X in its cell and the outer normal."""
+        count = len(points)
+        distance = np.full(count, np.inf)
+        facet = np.full(count, -1, dtype=np.int64)
+        X = np.zeros((count, len(self.origins[0]) if len(self.cells) else 1))
+        normal = np.zeros((count, self.gdim))
+        if not len(self.cells):
+            return distance, facet, X, normal
+        near = np.linalg.norm(points[:, None, :] - self.centroids[None, :, :], axis=2)
+        candidates = np.argsort(near, axis=1)[:, :_CANDIDATES]
+        for q, p in enumerate(points):
+            for i in candidates[q]:
+                xi, x = self._project(i, p)
+                d = float(np.linalg.norm(x - p))
+                if d < distance[q]:
+                    distance[q], facet[q] = d, i
+                    X[q] = self.origins[i] + self.edges[i] @ xi
+                    normal[q] = self._outer_normal(i, xi, x)
+        return distance, facet, X, normal
+
+    def _project(self, i: int, p: np.ndarray):
+        """The closest point to p on facet i: Gauss-Newton in xi, kept in the facet."""
+        xi = self._middle(i)
+        x, tangent = self._point(i, xi)
+        for _ in range(_NEWTON_STEPS if xi.size else 0):
+            step = np.linalg.lstsq(tangent, p - x, rcond=None)[0]
+            xi = np.clip(xi + step, 0.0, None)
+            if xi.sum() > 1.0:
+                xi = xi / xi.sum()
+            x, tangent = self._point(i, xi)
+        return xi, x
+
+    def _outer_normal(self, i: int, xi: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """The unit normal of facet i at x(xi), pointing out of its cell."""
+        _, tangent = self._point(i, xi)
+        if self.gdim == 1:
+            normal = np.ones(1)
+        elif self.gdim == 2:
+            normal = np.array([tangent[1, 0], -tangent[0, 0]])
+        else:
+            normal = np.cross(tangent[:, 0], tangent[:, 1])
+        inward = self.nodes[i].mean(axis=0) - x
+        if normal @ inward > 0:
+            normal = -normal
+        return normal / np.linalg.norm(normal)
+
+
+def _surface_nodes(V, facets: np.ndarray):
+    """The owned nodes of ``V`` on ``facets`` and their coordinates (from the reference
+    points of the element, mapped by the cell's geometry)."""
+    mesh = V.mesh
+    tdim, gdim = mesh.topology.dim, mesh.geometry.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    f2c = mesh.topology.connectivity(tdim - 1, tdim)
+    nodes = fem.locate_dofs_topological(V, tdim - 1, facets)
+    nodes = np.unique(nodes[nodes < V.dofmap.index_map.size_local])
+    cell_type = _basix_cell(mesh)
+    element = basix.create_element(
+        basix.ElementFamily.P, cell_type, V.ufl_element().degree(),
+        basix.LagrangeVariant.equispaced,
+    )  # fmt: skip
+    geometry_element = basix.create_element(
+        basix.ElementFamily.P, cell_type, compat.geometry_degree(mesh),
+        basix.LagrangeVariant.equispaced,
+    )  # fmt: skip
+    shape = geometry_element.tabulate(0, element.points)[0, :, :, 0]  # (points, nodes)
+    dofmap, geometry = compat.dofmap_array(V), compat.geometry_dofmap(mesh)
+    x = mesh.geometry.x[:, :gdim]
+    coordinates = {}
+    for facet in facets:
+        cell = int(f2c.links(facet)[0])
+        points = shape @ x[geometry[cell]]
+        for node, point in zip(dofmap[cell], points):
+            coordinates[int(node)] = point
+    return nodes, np.array([coordinates[int(n)] for n in nodes]).reshape(-1, gdim)
+
+
+class Pairing:
+    """The closest-point pairing of the nodes of Gamma_1 (slave facets) with Gamma_2
+    (master facets), in the reference configuration, under MPI.
+
+    Attributes:
+        T: The PETSc matrix (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i (each
+            component), zero rows elsewhere; on the layout of the vectors of ``V``.
+        normal: n_c at the slave nodes (a Function of ``V``, zero elsewhere).
+        gap_vector: pi(x_i) - x_i at the slave nodes (a Function of ``V``).
+    """
+
+    def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray):
+        mesh, comm = V.mesh, V.mesh.comm
+        gdim = mesh.geometry.dim
+        index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+        nodes, coordinates = _surface_nodes(V, slave_facets)
+        every_node = np.concatenate(comm.allgather(index_map.local_to_global(nodes)))
+        every_point = np.vstack(comm.allgather(coordinates)).reshape(-1, gdim)
+        master = _MasterSurface(V, master_facets)
+        distance, facet, X, outer = master.closest(every_point)
+        # the rank with the nearest facet computes the node's row (the lowest on a tie)
+        nearest = comm.allreduce(distance, op=MPI.MIN) if comm.size > 1 else distance
+        if not np.all(np.isfinite(nearest)):
+            raise ValueError("the master surface of a contact pair has no facet")
+        candidate = np.where(distance == nearest, comm.rank, comm.size)
+        winner = comm.allreduce(candidate, op=MPI.MIN) if comm.size > 1 else candidate
+        mine = np.flatnonzero(winner == comm.rank)
+
+        size = (index_map.size_local * bs, index_map.size_global * bs)
+        per_cell = master.element.dim
+        self.T = PETSc.Mat().createAIJ((size, size), nnz=(per_cell, per_cell), comm=comm)
+        self.T.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        normal, gap = compat.create_vector(V), compat.create_vector(V)
+        dofmap = compat.dofmap_array(V)
+        for q in mine:
+            cell = master.cells[facet[q]]
+            values = master.element.tabulate(0, X[q][None, :])[0, 0, :, 0]
+            columns = index_map.local_to_global(dofmap[cell].astype(np.int32))
+            point = master._point(facet[q], self._xi(master, facet[q], X[q]))[0]
+            rows = (every_node[q] * bs + np.arange(bs)).astype(PETSc.IntType)
+            for component in range(bs):
+                self.T.setValues(
+                    rows[component], (columns * bs + component).astype(PETSc.IntType), values
+                )
+            normal.setValues(rows, -outer[q][:bs])
+            gap.setValues(rows, (point - every_point[q])[:bs])
+        self.T.assemble()
+        self.normal, self.gap_vector = fem.Function(V), fem.Function(V)
+        for vector, function in ((normal, self.normal), (gap, self.gap_vector)):
+            vector.assemble()
+            compat.petsc_vector(function).array[:] = vector.array
+            function.x.scatter_forward()
+            vector.destroy()
+
+    @staticmethod
+    def _xi(master: _MasterSurface, i: int, X: np.ndarray) -> np.ndarray:
+        """The facet coordinates of the reference point X of facet i."""
+        edges = master.edges[i]
+        if not edges.size:
+            return np.zeros(0)
+        return np.linalg.lstsq(edges, X - master.origins[i], rcond=None)[0]
+
+    def apply(self, source: fem.Function, target: fem.Function) -> None:
+        """target = T source (the partner values at the slave nodes)."""
+        self.T.mult(compat.petsc_vector(source), compat.petsc_vector(target))
+        target.x.scatter_forward()
+
+    def destroy(self) -> None:
+        self.T.destroy()
+
+
+class _PartnerSurface:
+    """The master surface as seen from the slave nodes, behind the interface of a rigid
+    obstacle (:mod:`nitsche_dolfinx.obstacles`): n_c and g interpolated from the nodes."""
+
+    def __init__(self, pairing: Pairing):
+        self.pairing = pairing
+
+    def normal(self, x):
+        return self.pairing.normal
+
+    def gap(self, x):
+        return ufl.dot(self.pairing.gap_vector, self.pairing.normal)
+
+
+class PairContact(NitscheContact):
+    """One biased half of a contact pair: Gamma_1 (``ds``) against its partner surface.
+
+    The law is :class:`~nitsche_dolfinx.contact.NitscheContact`'s with the relative
+    normal displacement (u - T u) . n_c, every term multiplied by ``weight`` (1/2 for
+    each half of the unbiased variant). The part tested by the partner's displacement,
+    :meth:`partner_term`, is assembled apart and added through T^T
+    (:class:`PairCoupling`).
+
+    Args:
+        pairing: The :class:`Pairing` of Gamma_1 with Gamma_2.
+        weight: 1 (biased) or 1/2 (a half of the unbiased variant).
+        The others are those of :class:`~nitsche_dolfinx.contact.NitscheContact`.
+    """
+
+    def __init__(self, pairing, ds, stress, gamma_h, nitsche_theta, weight: float):
+        super().__init__(_PartnerSurface(pairing), ds, stress, gamma_h, nitsche_theta)
+        self.pairing = pairing
+        self.weight = float(weight)
+        self.partners: dict = {}  # Function -> its partner T f
+
+    def track(self, functions) -> None:
+        """Give each Function of the state (u, v, a and the unknown) a partner T f."""
+        for function in functions:
+            if function not in self.partners:
+                self.partners[function] = fem.Function(function.function_space)
+
+    def update(self) -> None:
+        """Recompute every partner from its Function."""
+        for function, partner in self.partners.items():
+            self.pairing.apply(function, partner)
+
+    def partner(self, expression):
+        """The expression with every tracked Function f replaced by its partner T f."""
+        replaced = ufl.replace(expression, self.partners)
+        tracked = set(self.partners.values())
+        for coefficient in extract_coefficients(replaced):
+            space = getattr(coefficient, "function_space", None)
+            if space is not None and space == self.pairing.normal.function_space:
+                if coefficient not in tracked and coefficient not in self._surface():
+                    raise ValueError(
+                        f"contact pair: {coefficient} has no partner (not in the state)"
+                    )
+        return replaced
+
+    def _surface(self):
+        return (self.pairing.normal, self.pairing.gap_vector)
+
+    # -- the law of NitscheContact with the partner -----------------------------------
+
+    def normal_displacement(self, u):
+        """(u - T u) . n_c (for the test function: v . n_c, see :meth:`test_projection`)."""
+        return ufl.dot(u - self.partner(u), self.n_c)
+
+    def test_projection(self, v):
+        """v . n_c - Theta gamma_h sigma_n(v): the slave's part; the partner's is
+        :meth:`partner_term`."""
+        return ufl.dot(v, self.n_c) - self.nitsche_theta * self.gamma_h * self.sigma_n(v)
+
+    def consistency_term(self, u, v):
+        return self.weight * super().consistency_term(u, v)
+
+    def contact_term(self, force, v):
+        return self.weight * super().contact_term(force, v)
+
+    def partner_term(self, force, v):
+        """-weight int (1/gamma_h) force (T v) . n_c, with ``v`` standing for T v."""
+        return -self.weight * force / self.gamma_h * ufl.dot(v, self.n_c) * self.ds
+
+    def energy_correction(self, u):
+        return self.weight * super().energy_correction(u)
+
+    def force(self, u):
+        return self.weight * super().force(u)
+
+    def area(self, u):
+        return self.weight * super().area(u)
+
+
+class PairCoupling:
+    """What a step's SNES needs beyond its UFL forms for contact pairs: the partners of
+    the iterate, the residual T^T G and the Jacobian's coupling terms (docs/method.md
+    section 12). Used by :class:`~nitsche_dolfinx.solver.SNESSolver` (``coupling``).
+
+    Args:
+        pairs: The :class:`PairContact` halves of the problem.
+        F: The step's residual form (with every pair's slave terms).
+        partner_residuals: For each pair, its partner-tested form G (test v for T v).
+        w: The unknown.
+        bc_dofs: Local (unblocked) indices of the Dirichlet dofs of ``w``.
+    """
+
+    def __init__(self, pairs, F, partner_residuals, w: fem.Function, bc_dofs: np.ndarray):
+        V = w.function_space
+        trial = ufl.TrialFunction(V)
+        self.pairs, self.w = list(pairs), w
+        self._G = [fem.form(G) for G in partner_residuals]
+        self._J = []
+        for pair, G in zip(self.pairs, partner_residuals):
+            w_partner = pair.partners[w]
+            self._J.append(
+                tuple(
+                    fem.form(form)
+                    for form in (
+                        ufl.derivative(F, w_partner, trial),
+                        ufl.derivative(G, w, trial),
+                        ufl.derivative(G, w_partner, trial),
+                    )
+                )
+            )
+        self._g = compat.create_vector(V)
+        self._Tg = self._g.duplicate()
+        index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
+        owned = np.asarray(bc_dofs, dtype=np.int64)
+        owned = owned[owned < index_map.size_local * bs]
+        self._bc_rows = (index_map.local_range[0] * bs + owned).astype(np.int32)
+        self._owned_bc = owned
+        self._C = None
+        self._C_last = None
+
+    def update(self, x: PETSc.Vec | None = None) -> None:
+        """The partners of the state, and of the iterate ``x`` if given."""
+        if x is not None:
+            x.copy(compat.petsc_vector(self.w))
+            self.w.x.scatter_forward()
+        for pair in self.pairs:
+            pair.update()
+
+    def add_residual(self, b: PETSc.Vec) -> None:
+        """b += sum of T^T G over the pairs (zero at the Dirichlet dofs)."""
+        for pair, G in zip(self.pairs, self._G):
+            with self._g.localForm() as local:
+                local.set(0.0)
+            fem_petsc.assemble_vector(self._g, G)
+            self._g.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            pair.pairing.T.multTranspose(self._g, self._Tg)
+            self._Tg.array[self._owned_bc] = 0.0
+            b.axpy(1.0, self._Tg)
+
+    def coupling_matrix(self) -> PETSc.Mat:
+        """The coupling terms of the Jacobian at the current iterate, with zero Dirichlet
+        rows and columns."""
+        total = None
+        for pair, forms in zip(self.pairs, self._J):
+            T = pair.pairing.T
+            F_w, G_w, G_ww = (self._assemble(form) for form in forms)
+            terms = [F_w.matMult(T), T.transposeMatMult(G_w), G_ww.PtAP(T)]
+            for matrix in (F_w, G_w, G_ww):
+                matrix.destroy()
+            for term in terms:
+                if total is None:
+                    total = term
+                else:
+                    total.axpy(1.0, term, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+                    term.destroy()
+        total.zeroRowsColumns(self._bc_rows, 0.0)
+        return total
+
+    @staticmethod
+    def _assemble(form) -> PETSc.Mat:
+        matrix = fem_petsc.assemble_matrix(form)
+        matrix.assemble()
+        return matrix
+
+    def union_pattern(self, template: PETSc.Mat) -> PETSc.Mat:
+        """A zero matrix with the sparsity of ``template`` and of every coupling term."""
+        pattern = template.duplicate()
+        coupling = self.coupling_matrix()
+        pattern.axpy(1.0, coupling, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        coupling.destroy()
+        pattern.zeroEntries()
+        return pattern
+
+    def jacobian_changed(self) -> bool:
+        """Assemble the coupling terms; True if they differ from the last ones."""
+        C = self.coupling_matrix()
+        if self._C is not None:
+            self._C.destroy()
+        self._C = C
+        changed = self._C_last is None or not C.equal(self._C_last)
+        if changed:
+            if self._C_last is not None:
+                self._C_last.destroy()
+            self._C_last = C.copy()
+        return changed
+
+    def add_jacobian(self, A: PETSc.Mat) -> None:
+        """A += the coupling terms of the last :meth:`jacobian_changed`."""
+        A.axpy(1.0, self._C, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+
+    def petsc_objects(self) -> list:
+        return [m for m in (self._g, self._Tg, self._C, self._C_last) if m is not None]

@@ -1,0 +1,275 @@
+"""The two-body test cases of docs/method.md section 12: two bars, two disks and two balls
+moving towards each other, as meshes with both bodies and as ready problems.
+
+Each pair of bodies is one mesh with two disconnected parts; the second body is the
+mirror image of the first in the plane between them, node for node, so that the pair is
+symmetric at the discrete level too. The meshes are made by gmsh on rank 0 (the first
+body by the generator of the impact test, :mod:`nitsche_dolfinx.shapes`; the second as
+its mirror, entered into a new gmsh model as discrete entities) and distributed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from .material import Material
+from .model import ContactProblem
+
+__all__ = [
+    "LOWER_BODY",
+    "LOWER_CONTACT",
+    "UPPER_BODY",
+    "UPPER_CONTACT",
+    "mirrored_bodies_mesh",
+    "add_body_velocity_probes",
+    "body_velocities",
+    "two_bars_mesh",
+    "two_bars_problem",
+    "two_bodies_problem",
+]
+
+#: Cell tags of the two bodies: the first (upper, or right in 1D) and its mirror image.
+UPPER_BODY, LOWER_BODY = 1, 2
+#: Facet tags of the two contact surfaces (the facing halves of the boundaries).
+UPPER_CONTACT, LOWER_CONTACT = 1, 2
+#: Facet tags of the rest of each boundary.
+UPPER_FREE, LOWER_FREE = 3, 4
+
+
+def _mirror_into_new_model(gmsh, dim: int, gdim: int, groups: dict, plane: float = 0.0) -> None:
+    """Replace the current gmsh model by one holding its mesh and the mirror image of it
+    in the plane x_{gdim-1} = ``plane``, as discrete entities.
+
+    ``groups`` maps a physical group (dim, tag) of the current model to the pair of tags
+    (own, mirrored) it gets in the new one."""
+    node_tags, coordinates, _ = gmsh.model.mesh.getNodes()
+    coordinates = coordinates.reshape(-1, 3)
+    order = np.argsort(node_tags)
+    node_tags, coordinates = node_tags[order], coordinates[order]
+    offset = int(node_tags.max())
+    elements = []  # (dim, physical tag, mirrored tag, types, element tags, element nodes)
+    element_offset = 0
+    for (group_dim, group), tags in groups.items():
+        for entity in gmsh.model.getEntitiesForPhysicalGroup(group_dim, group):
+            types, element_tags, element_nodes = gmsh.model.mesh.getElements(group_dim, entity)
+            elements.append((group_dim, tags, types, element_tags, element_nodes))
+            element_offset = max([element_offset, *(int(t.max()) for t in element_tags)])
+    mirrored = coordinates.copy()
+    mirrored[:, gdim - 1] = 2 * plane - mirrored[:, gdim - 1]
+    gmsh.model.add("mirrored pair")
+    entity_of = {}
+    for group_dim, tags, *_ in elements:
+        for tag in tags:
+            key = (group_dim, tag)
+            if key not in entity_of:
+                entity_of[key] = gmsh.model.addDiscreteEntity(group_dim)
+    body_tags = next(tags for (group_dim, _), tags in groups.items() if group_dim == dim)
+    volumes = [entity_of[(dim, tag)] for tag in body_tags]
+    gmsh.model.mesh.addNodes(dim, volumes[0], node_tags, coordinates.ravel())
+    gmsh.model.mesh.addNodes(dim, volumes[1], node_tags + offset, mirrored.ravel())
+    for group_dim, tags, types, element_tags, element_nodes in elements:
+        for side, tag in enumerate(tags):
+            shift_nodes, shift_elements = offset * side, (element_offset + 1) * side
+            gmsh.model.mesh.addElements(
+                group_dim,
+                entity_of[(group_dim, tag)],
+                list(types),
+                [t + shift_elements for t in element_tags],
+                [n + shift_nodes for n in element_nodes],
+            )
+    physical = {}
+    for (group_dim, tag), entity in entity_of.items():
+        physical.setdefault((group_dim, tag), []).append(entity)
+    for (group_dim, tag), entities in physical.items():
+        gmsh.model.addPhysicalGroup(group_dim, entities, tag)
+
+
+def two_bars_mesh(nx: int = 100, gap: float = 0.0, comm=MPI.COMM_WORLD):
+    """Two bars of length 1: (gap, 1 + gap) and its mirror image (-1, 0), ``nx`` cells
+    each. Cells: :data:`UPPER_BODY` (the right bar), :data:`LOWER_BODY`. Facets:
+    :data:`UPPER_CONTACT` at x = gap, :data:`LOWER_CONTACT` at x = 0, :data:`UPPER_FREE`
+    and :data:`LOWER_FREE` at the outer ends. Returns ``(mesh, cell_tags, facet_tags)``."""
+    from .shapes import gmsh_session
+
+    if int(nx) < 1:
+        raise ValueError(f"each bar needs at least one cell, got nx={nx!r}")
+    if not np.isfinite(gap) or gap < 0:
+        raise ValueError(f"the gap between the bars must be >= 0, got gap={gap!r}")
+
+    def build():
+        import gmsh
+
+        gmsh.model.add("bar")
+        geo = gmsh.model.geo
+        left, right = geo.addPoint(gap, 0, 0), geo.addPoint(1 + gap, 0, 0)
+        line = geo.addLine(left, right)
+        geo.synchronize()
+        gmsh.model.mesh.setTransfiniteCurve(line, int(nx) + 1)
+        gmsh.model.addPhysicalGroup(1, [line], UPPER_BODY)
+        gmsh.model.addPhysicalGroup(0, [left], UPPER_CONTACT)
+        gmsh.model.addPhysicalGroup(0, [right], UPPER_FREE)
+        gmsh.model.mesh.generate(1)
+        groups = {
+            (1, UPPER_BODY): (UPPER_BODY, LOWER_BODY),
+            (0, UPPER_CONTACT): (UPPER_CONTACT, LOWER_CONTACT),
+            (0, UPPER_FREE): (UPPER_FREE, LOWER_FREE),
+        }
+        _mirror_into_new_model(gmsh, 1, 1, groups, plane=gap / 2)
+
+    with gmsh_session():
+        return _distribute(build, 1, comm)
+
+
+def mirrored_bodies_mesh(
+    dim: int, mesh_size: float = 8.0, order: int = 2, gap: float = 0.0, comm=MPI.COMM_WORLD
+):
+    """The body of the impact test (the ball, ``dim=3``, or the disk, ``dim=2``; radius 20)
+    with its lowest point at height gap/2, and its mirror image below the plane
+    x_{dim-1} = 0. Facets: :data:`UPPER_CONTACT` (the upper body's lower half),
+    :data:`LOWER_CONTACT` (the lower body's upper half), :data:`UPPER_FREE`,
+    :data:`LOWER_FREE`; cells :data:`UPPER_BODY`, :data:`LOWER_BODY`. Returns
+    ``(mesh, cell_tags, facet_tags)``."""
+    from .shapes import (
+        BALL_CONTACT,
+        BALL_FREE,
+        BALL_VOLUME,
+        DISK_CONTACT,
+        DISK_FREE,
+        DISK_SURFACE,
+        build_ball_model,
+        build_disk_model,
+        gmsh_session,
+    )
+
+    if dim not in (2, 3):
+        raise ValueError(f"the mirrored bodies are disks (dim=2) or balls (dim=3), got {dim!r}")
+    if not np.isfinite(gap) or gap < 0:
+        raise ValueError(f"the gap between the bodies must be >= 0, got gap={gap!r}")
+    radius = 20.0
+    if dim == 3:
+        body, contact, free = BALL_VOLUME, BALL_CONTACT, BALL_FREE
+        center = (0.0, 0.0, radius + gap / 2)
+    else:
+        body, contact, free = DISK_SURFACE, DISK_CONTACT, DISK_FREE
+        center = (0.0, radius + gap / 2)
+    make = build_ball_model if dim == 3 else build_disk_model
+
+    def build():
+        import gmsh
+
+        make(mesh_size=mesh_size, order=order, radius=radius, center=center)
+        groups = {
+            (dim, body): (UPPER_BODY, LOWER_BODY),
+            (dim - 1, contact): (UPPER_CONTACT, LOWER_CONTACT),
+            (dim - 1, free): (UPPER_FREE, LOWER_FREE),
+        }
+        _mirror_into_new_model(gmsh, dim, dim, groups)
+
+    with gmsh_session():
+        return _distribute(build, dim, comm)
+
+
+def _distribute(build, gdim: int, comm):
+    """Run ``build`` on rank 0 and distribute the gmsh model:
+    ``(mesh, cell_tags, facet_tags)``."""
+    import gmsh
+
+    from . import compat
+
+    error = None
+    if comm.rank == 0:
+        try:
+            build()
+        except Exception as caught:  # re-raised on every rank below
+            error = caught
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
+    return compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim)
+
+
+def body_velocities(problem: ContactProblem, cell_tags, velocities: dict):
+    """A Function of ``problem.V``: on the cells of each tag, its constant velocity."""
+    V = problem.V
+    tdim = problem.mesh.topology.dim
+    velocity = fem.Function(V)
+    values = velocity.x.array.reshape(-1, V.dofmap.index_map_bs)
+    for tag, value in velocities.items():
+        dofs = fem.locate_dofs_topological(V, tdim, cell_tags.find(tag))
+        values[dofs] = value
+    velocity.x.scatter_forward()
+    return velocity
+
+
+def two_bars_problem(
+    nx: int = 100,
+    v0: float = 0.5,
+    gap: float = 0.0,
+    degree: int = 1,
+    gamma0: float = 1e-6,
+    nitsche_theta: float = 1.0,
+    variant: str = "unbiased",
+    comm=MPI.COMM_WORLD,
+):
+    """Two bars of length 1, E = rho = 1, the right one moving at -v0 and the left one at
+    +v0 (docs/method.md section 12): they touch at t = gap / (2 v0), stay in contact for
+    2 L / c = 2, and separate with their velocities exchanged.
+
+    Returns:
+        ``(problem, cell_tags)``: the cells of the right bar are tagged
+        :data:`UPPER_BODY`, those of the left one :data:`LOWER_BODY`.
+    """
+    mesh, cell_tags, tags = two_bars_mesh(nx, gap, comm)
+    problem = ContactProblem(
+        mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree, gamma0, nitsche_theta
+    )
+    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant)
+    velocity = body_velocities(problem, cell_tags, {UPPER_BODY: [-v0], LOWER_BODY: [v0]})
+    problem.set_initial_conditions(velocity=velocity)
+    return problem, cell_tags
+
+
+def two_bodies_problem(
+    dim: int = 2,
+    mesh_size: float = 8.0,
+    v0: float = 1.0,
+    gap: float = 0.0,
+    degree: int = 2,
+    gamma0: float = 1e-3,
+    nitsche_theta: float = 1.0,
+    variant: str = "unbiased",
+    geometry_order: int = 2,
+    comm=MPI.COMM_WORLD,
+):
+    """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
+    (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
+    each other along the last axis at speeds v0, without gravity.
+
+    Returns:
+        ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
+    """
+    mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm)
+    problem = ContactProblem(
+        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta
+    )
+    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant)
+
+    towards = np.zeros(dim)
+    towards[-1] = v0
+    velocities = {UPPER_BODY: -towards, LOWER_BODY: towards}
+    problem.set_initial_conditions(velocity=body_velocities(problem, cell_tags, velocities))
+    return problem, cell_tags
+
+
+def add_body_velocity_probes(simulation, cell_tags, names: dict, component: int = -1) -> None:
+    """History columns ``names[tag]``: the mean velocity component of each body."""
+    from .diagnostics import BoundaryAverage
+
+    problem = simulation.problem
+    dx = ufl.Measure("dx", domain=problem.mesh, subdomain_data=cell_tags)
+    velocity = simulation.v[problem.gdim - 1 if component == -1 else component]
+    for tag, name in names.items():
+        simulation.add_probe(name, BoundaryAverage(problem.mesh, velocity, dx(tag)))
