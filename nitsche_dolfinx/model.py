@@ -220,7 +220,9 @@ class ContactProblem:
         self.contact_tags.append(tag)
         return contact
 
-    def add_contact_pair(self, tag_a: int, tag_b: int, variant: str = "unbiased") -> list:
+    def add_contact_pair(
+        self, tag_a: int, tag_b: int, variant: str = "unbiased", direction=None
+    ) -> list:
         """Add contact between the facets ``tag_a`` and ``tag_b`` of two bodies (or of two
         parts of one body) of the mesh, by Nitsche's method (docs/method.md section 12).
 
@@ -228,8 +230,11 @@ class ContactProblem:
         its closest point on the other surface. ``variant="unbiased"`` (the default):
         each surface is slave in turn with weight 1/2, and the stresses of both bodies
         enter; ``"biased"``: ``tag_a`` is the slave, and only its stress enters.
-        Frictionless, Nitsche only. Returns the :class:`~nitsche_dolfinx.pairs.PairContact`
-        halves.
+        ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
+        instead of with the closest point, with the contact normal n_c = direction: for
+        a head-on collision, where it makes a pair of mirror-image bodies exactly one
+        body on a rigid plane (docs/method.md section 12). Frictionless, Nitsche only.
+        Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
         from .pairs import CONTACT_PAIR_VARIANTS, PairContact, Pairing
 
@@ -242,11 +247,19 @@ class ContactProblem:
         )
         require(tag_a != tag_b, "tag_b", tag_b, f"a pair needs two surfaces, got {tag_a} twice")
         facets = {tag: self.facets(tag) for tag in (tag_a, tag_b)}
-        sides = [(tag_a, tag_b)] if variant == "biased" else [(tag_a, tag_b), (tag_b, tag_a)]
+        unit = None
+        if direction is not None:
+            unit = as_array(direction, (self.gdim,), "contact pair direction")
+            length = float(np.linalg.norm(unit))
+            require(length > 0, "direction", list(unit), "the direction must not be zero")
+            unit = unit / length
+        sides = [(tag_a, tag_b, unit)]
+        if variant == "unbiased":
+            sides.append((tag_b, tag_a, None if unit is None else -unit))
         weight = 1.0 if variant == "biased" else 0.5
         halves = []
-        for slave, master in sides:
-            pairing = Pairing(self.V, facets[slave], facets[master])
+        for slave, master, along in sides:
+            pairing = Pairing(self.V, facets[slave], facets[master], along)
             contact = PairContact(
                 pairing, self.ds(slave), self.stress, self.gamma_h, self.nitsche_theta, weight
             )

@@ -100,9 +100,14 @@ class _MasterSurface:
         nodes = self.nodes[i]
         return table[0] @ nodes, (table[1:] @ nodes).T @ self.edges[i]
 
-    def closest(self, points: np.ndarray):
+    def closest(self, points: np.ndarray, direction: np.ndarray | None = None):
         """For each point: the distance to the nearest facet of this rank (inf if none),
-        that facet's index, the reference point X in its cell and the outer normal."""
+        that facet's index, the reference point X in its cell and the outer normal.
+
+        With a unit ``direction`` d, the partner is where the line through the point along
+        d meets the surface: the distance is then that of the line to the facet (zero
+        where it meets it, plus a tie-break favouring the nearest meeting point), and the
+        normal returned is -d."""
         count = len(points)
         distance = np.full(count, np.inf)
         facet = np.full(count, -1, dtype=np.int64)
@@ -110,24 +115,32 @@ class _MasterSurface:
         normal = np.zeros((count, self.gdim))
         if not len(self.cells):
             return distance, facet, X, normal
-        near = np.linalg.norm(points[:, None, :] - self.centroids[None, :, :], axis=2)
-        candidates = np.argsort(near, axis=1)[:, :_CANDIDATES]
+        across = np.eye(self.gdim)
+        if direction is not None:  # only the offset across the line counts
+            across = across - np.outer(direction, direction)
+        offsets = (self.centroids[None, :, :] - points[:, None, :]) @ across
+        candidates = np.argsort(np.linalg.norm(offsets, axis=2), axis=1)[:, :_CANDIDATES]
         for q, p in enumerate(points):
             for i in candidates[q]:
-                xi, x = self._project(i, p)
-                d = float(np.linalg.norm(x - p))
+                xi, x = self._project(i, p, across)
+                d = float(np.linalg.norm(across @ (x - p)))
+                if direction is not None:
+                    d += 1e-9 * abs(float(direction @ (x - p)))
                 if d < distance[q]:
                     distance[q], facet[q] = d, i
                     X[q] = self.origins[i] + self.edges[i] @ xi
-                    normal[q] = self._outer_normal(i, xi, x)
+                    normal[q] = (
+                        -direction if direction is not None else self._outer_normal(i, xi, x)
+                    )
         return distance, facet, X, normal
 
-    def _project(self, i: int, p: np.ndarray):
-        """The closest point to p on facet i: Gauss-Newton in xi, kept in the facet."""
+    def _project(self, i: int, p: np.ndarray, across: np.ndarray):
+        """The point of facet i closest to p, measured by ``across`` (the identity, or the
+        projection across a line): Gauss-Newton in xi, kept in the facet."""
         xi = self._middle(i)
         x, tangent = self._point(i, xi)
         for _ in range(_NEWTON_STEPS if xi.size else 0):
-            step = np.linalg.lstsq(tangent, p - x, rcond=None)[0]
+            step = np.linalg.lstsq(across @ tangent, across @ (p - x), rcond=None)[0]
             xi = np.clip(xi + step, 0.0, None)
             if xi.sum() > 1.0:
                 xi = xi / xi.sum()
@@ -180,8 +193,10 @@ def _surface_nodes(V, facets: np.ndarray):
 
 
 class Pairing:
-    """The closest-point pairing of the nodes of Gamma_1 (slave facets) with Gamma_2
-    (master facets), in the reference configuration, under MPI.
+    """The pairing of the nodes of Gamma_1 (slave facets) with Gamma_2 (master facets), in
+    the reference configuration, under MPI: with the closest point of Gamma_2 and its
+    normal, or, given a unit ``direction`` d, with the point where the line through the
+    node along d meets Gamma_2, and n_c = d.
 
     Attributes:
         T: The PETSc matrix (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i (each
@@ -190,7 +205,7 @@ class Pairing:
         gap_vector: pi(x_i) - x_i at the slave nodes (a Function of ``V``).
     """
 
-    def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray):
+    def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray, direction=None):
         mesh, comm = V.mesh, V.mesh.comm
         gdim = mesh.geometry.dim
         index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
@@ -198,7 +213,7 @@ class Pairing:
         every_node = np.concatenate(comm.allgather(index_map.local_to_global(nodes)))
         every_point = np.vstack(comm.allgather(coordinates)).reshape(-1, gdim)
         master = _MasterSurface(V, master_facets)
-        distance, facet, X, outer = master.closest(every_point)
+        distance, facet, X, outer = master.closest(every_point, direction)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
         nearest = comm.allreduce(distance, op=MPI.MIN) if comm.size > 1 else distance
         if not np.all(np.isfinite(nearest)):

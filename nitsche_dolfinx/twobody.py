@@ -242,11 +242,14 @@ def two_bodies_problem(
     nitsche_theta: float = 1.0,
     variant: str = "unbiased",
     geometry_order: int = 2,
+    along_axis: bool = True,
     comm=MPI.COMM_WORLD,
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
-    each other along the last axis at speeds v0, without gravity.
+    each other along the last axis at speeds v0, without gravity. ``along_axis``: the
+    surfaces are paired along that axis (then the pair is exactly one body on a rigid
+    plane with gamma0 / 2, docs/method.md section 12); else with closest points.
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
@@ -255,7 +258,9 @@ def two_bodies_problem(
     problem = ContactProblem(
         mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta
     )
-    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant)
+    down = np.zeros(dim)
+    down[-1] = -1.0
+    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant, down if along_axis else None)
 
     towards = np.zeros(dim)
     towards[-1] = v0

@@ -7,11 +7,13 @@ from mpi4py import MPI
 from nitsche_dolfinx import ContactProblem, HybridScheme, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.meshes import bar_mesh
 from nitsche_dolfinx.parameters import ParameterError
+from nitsche_dolfinx.shapes import DISK_CONTACT, disk_mesh
 from nitsche_dolfinx.twobody import (
     LOWER_BODY,
     UPPER_BODY,
     add_body_velocity_probes,
     two_bars_problem,
+    two_bodies_problem,
 )
 
 NX, DT, T = 20, 0.025, 3.0
@@ -89,3 +91,44 @@ def test_parallel_pair_matches_serial():
         # the momentum is zero: compared on the scale of one bar's, rho L v0 = 0.5
         scale = 0.5 if column == "momentum" else np.abs(serial[column]).max()
         assert np.abs(parallel[column] - serial[column]).max() <= 1e-8 * scale, column
+
+
+def _disks(gamma0=1e-3, t_end=6.0, **kwargs):
+    problem, _ = two_bodies_problem(dim=2, mesh_size=8.0, v0=1.0, gap=1.0, gamma0=gamma0, **kwargs)
+    return Simulation(problem, HybridScheme(), dt=0.1, t_end=t_end).run()
+
+
+def _disk_on_a_plane(gamma0, t_end=6.0):
+    mesh, tags = disk_mesh(mesh_size=8.0, order=2, center=[0.0, 20.5])
+    problem = ContactProblem(mesh, tags, Material.from_lame(20.0, 20.0), 2, gamma0, 1.0)
+    problem.add_obstacle(PlaneObstacle([0.0, 0.0], [0.0, 1.0]), DISK_CONTACT)
+    problem.set_initial_conditions(velocity=[0.0, -1.0])
+    return Simulation(problem, HybridScheme(), dt=0.1, t_end=t_end).run()
+
+
+def test_mirror_disks_are_one_disk_on_a_rigid_plane():
+    """Paired along their axis, two mirror-image P2 disks at +v and -v with gamma0 are one
+    disk on the plane of symmetry with gamma0 / 2, to round-off."""
+    pair, one = _disks(), _disk_on_a_plane(1e-3 / 2)
+    assert max(one["contact_force"]) > 100
+    np.testing.assert_allclose(
+        pair["contact_force"], one["contact_force"], rtol=0, atol=1e-10 * 200
+    )
+    np.testing.assert_allclose(pair["energy_theta"], 2 * one["energy_theta"], rtol=1e-12)
+    np.testing.assert_array_equal(pair["newton_iterations"], one["newton_iterations"])
+
+
+@pytest.mark.parametrize(
+    "options", [{"along_axis": False}, {"variant": "biased"}], ids=["closest", "biased"]
+)
+def test_other_pairings_conserve_momentum_and_control_energy(options):
+    """Closest-point pairing and the biased variant are other discretisations of the same
+    contact: momentum conserved, E_Theta never rising, and a force history near the
+    unbiased axis pairing's."""
+    pair, reference = _disks(**options), _disks()
+    mass_velocity = np.pi * 20.0**2  # the momentum of one disk, rho |disk| v0
+    for component in ("momentum_x", "momentum_y"):
+        assert np.abs(pair[component]).max() < 1e-10 * mass_velocity
+    assert np.diff(pair["energy_theta"]).max() < 1e-12 * pair["energy_theta"][0]
+    difference = np.abs(pair["contact_force"] - reference["contact_force"]).max()
+    assert 0 < difference < 0.25 * reference["contact_force"].max()
