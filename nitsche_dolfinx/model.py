@@ -224,7 +224,7 @@ class ContactProblem:
         self, tag_a: int, tag_b: int, variant: str = "unbiased", direction=None
     ) -> list:
         """Add contact between the facets ``tag_a`` and ``tag_b`` of two bodies (or of two
-        parts of one body) of the mesh, by Nitsche's method (docs/method.md section 12).
+        parts of one body) of the mesh, by Nitsche's method (docs/method.md section 11).
 
         Each node of a slave surface is paired once, in the reference configuration, with
         its closest point on the other surface. ``variant="unbiased"`` (the default):
@@ -233,7 +233,7 @@ class ContactProblem:
         ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
         instead of with the closest point, with the contact normal n_c = direction: for
         a head-on collision, where it makes a pair of mirror-image bodies exactly one
-        body on a rigid plane (docs/method.md section 12). Frictionless, Nitsche only.
+        body on a rigid plane (docs/method.md section 11). Frictionless, Nitsche only.
         Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
         from .pairs import CONTACT_PAIR_VARIANTS, PairContact, Pairing

@@ -1,4 +1,4 @@
-"""Contact between two deformable bodies by Nitsche's method (docs/method.md section 12).
+"""Contact between two deformable bodies by Nitsche's method (docs/method.md section 11).
 
 A pair is a slave surface Gamma_1 and a master surface Gamma_2, on one mesh (two bodies
 may be disconnected parts of it). Each node of Gamma_1 is paired once, in the reference
@@ -361,7 +361,7 @@ class PairContact(NitscheContact):
 class PairCoupling:
     """What a step's SNES needs beyond its UFL forms for contact pairs: the partners of
     the iterate, the residual T^T G and the Jacobian's coupling terms (docs/method.md
-    section 12). Used by :class:`~nitsche_dolfinx.solver.SNESSolver` (``coupling``).
+    section 11). Used by :class:`~nitsche_dolfinx.solver.SNESSolver` (``coupling``).
 
     Args:
         pairs: The :class:`PairContact` halves of the problem.

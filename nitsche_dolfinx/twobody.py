@@ -1,4 +1,4 @@
-"""The two-body test cases of docs/method.md section 12: two bars, two disks and two balls
+"""The two-body test cases of docs/method.md section 11: two bars, two disks and two balls
 moving towards each other, as meshes with both bodies and as ready problems.
 
 Each pair of bodies is one mesh with two disconnected parts; the second body is the
@@ -215,7 +215,7 @@ def two_bars_problem(
     comm=MPI.COMM_WORLD,
 ):
     """Two bars of length 1, E = rho = 1, the right one moving at -v0 and the left one at
-    +v0 (docs/method.md section 12): they touch at t = gap / (2 v0), stay in contact for
+    +v0 (docs/method.md section 11): they touch at t = gap / (2 v0), stay in contact for
     2 L / c = 2, and separate with their velocities exchanged.
 
     Returns:
@@ -249,7 +249,7 @@ def two_bodies_problem(
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
     each other along the last axis at speeds v0, without gravity. ``along_axis``: the
     surfaces are paired along that axis (then the pair is exactly one body on a rigid
-    plane with gamma0 / 2, docs/method.md section 12); else with closest points.
+    plane with gamma0 / 2, docs/method.md section 11); else with closest points.
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).

@@ -1,4 +1,4 @@
-"""Contact between two deformable bodies (docs/method.md section 12)."""
+"""Contact between two deformable bodies (docs/method.md section 11)."""
 
 import numpy as np
 import pytest
@@ -42,7 +42,7 @@ def bars():
 
 def test_unbiased_pair_is_the_rigid_plane_problem_with_half_gamma0(bars):
     """Two mirror-image bars at +v and -v with gamma0 are, term by term, one bar on a rigid
-    wall with gamma0 / 2 (docs/method.md section 12): the same contact force, twice the
+    wall with gamma0 / 2 (docs/method.md section 11): the same contact force, twice the
     energies."""
     wall = _bar_on_a_wall(1e-6 / 2)
     assert max(wall["contact_force"]) > 0.4
