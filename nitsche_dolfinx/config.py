@@ -29,6 +29,11 @@ Nitsche settings, the time scheme and the output::
     normal = [0.0, 1.0]
     tag = 1
 
+    [[contact_pair]]                # two bodies of the mesh (docs/method.md section 11)
+    tags = [3, 4]
+    variant = "unbiased"            # or "biased": the first tag is the slave
+    direction = [0.0, -1.0]         # optional: pair along it, from the first to the second
+
     [body_force]
     value = [0.0, -9.81]
 
@@ -68,6 +73,7 @@ class ConfigError(ValueError):
 
 _NUMBER = (int, float)
 _VECTOR = "vector"  # a list of numbers
+_TAG_PAIR = "tag pair"  # a list of two integers
 
 #: For each table: key -> (expected type, required). Arrays of tables are lists.
 SCHEMA: dict[str, Any] = {
@@ -101,6 +107,9 @@ SCHEMA: dict[str, Any] = {
             "tag": (int, True),
         }
     ],
+    "contact_pair": [
+        {"tags": (_TAG_PAIR, True), "variant": (str, False), "direction": (_VECTOR, False)}
+    ],
     "dirichlet": [{"tag": (int, True), "value": (_VECTOR, True)}],
     "traction": [{"tag": (int, True), "value": (_VECTOR, True)}],
     "body_force": {"value": (_VECTOR, True)},
@@ -114,6 +123,7 @@ _TYPE_NAMES = {
     int: "an integer",
     _NUMBER: "a number",
     _VECTOR: "a list of numbers",
+    _TAG_PAIR: "a list of two integer tags",
 }
 
 
@@ -240,6 +250,12 @@ def _check_table(table, schema: dict, where: str) -> None:
 def _has_type(value, expected) -> bool:
     if isinstance(value, bool):  # TOML booleans are not numbers
         return False
+    if expected == _TAG_PAIR:
+        return (
+            isinstance(value, list)
+            and len(value) == 2
+            and all(isinstance(x, int) and not isinstance(x, bool) for x in value)
+        )
     if expected == _VECTOR:
         if isinstance(value, _NUMBER):
             return True
@@ -385,6 +401,11 @@ def _add_terms(problem, config: dict, obstacles: list, source: str) -> None:
     for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
         with _reported_at(f"[[obstacle]] #{index + 1}", source):
             problem.add_obstacle(obstacle, table["tag"])
+    for index, pair in enumerate(config.get("contact_pair", [])):
+        with _reported_at(f"[[contact_pair]] #{index + 1}", source):
+            problem.add_contact_pair(
+                *pair["tags"], pair.get("variant", "unbiased"), pair.get("direction")
+            )
     for index, dirichlet in enumerate(config.get("dirichlet", [])):
         with _reported_at(f"[[dirichlet]] #{index + 1}", source):
             problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])

@@ -127,7 +127,8 @@ def load_mesh(
     Args:
         path: The ``.msh`` or ``.xdmf`` file.
         gdim: Geometric dimension; from the file when omitted (a ``.msh`` file
-            whose z coordinates are all zero is 2D).
+            whose z coordinates are all zero is 2D). An XDMF file has its own: a
+            different ``gdim`` is refused.
         comm: The communicator to distribute the mesh over.
         mesh_name: Name of the mesh in an XDMF file.
         facet_tags_name: Name of the facet tags in an XDMF file.
@@ -146,7 +147,13 @@ def load_mesh(
         if extension == ".msh":
             return _load_msh(path, gdim, comm)
         if extension == ".xdmf":
-            return _load_xdmf(path, comm, mesh_name, facet_tags_name)
+            mesh, facet_tags = _load_xdmf(path, comm, mesh_name, facet_tags_name)
+            if gdim is not None and mesh.geometry.dim != gdim:
+                raise ValueError(
+                    f"mesh file {path!r} holds {mesh.geometry.dim}D coordinates, not "
+                    f"gdim={gdim!r} (the geometric dimension of an XDMF mesh is its file's)"
+                )
+            return mesh, facet_tags
     except ValueError:
         raise
     except Exception as error:  # gmsh, HDF5 and dolfinx each raise their own kinds

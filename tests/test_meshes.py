@@ -57,3 +57,11 @@ def test_bad_mesh_file_is_named(tmp_path, content, message):
     with pytest.raises(ValueError, match=message) as info:
         load_mesh(str(path))
     assert "bad.msh" in str(info.value)
+
+
+def test_xdmf_mesh_of_another_dimension_is_refused(tmp_path):
+    mesh, tags = load_mesh(RING, gdim=2)
+    path = str(tmp_path / "ring.xdmf")
+    save_mesh(path, mesh, tags)
+    with pytest.raises(ValueError, match=r"holds 2D coordinates, not gdim=3"):
+        load_mesh(path, gdim=3)

@@ -132,3 +132,72 @@ def test_other_pairings_conserve_momentum_and_control_energy(options):
     assert np.diff(pair["energy_theta"]).max() < 1e-12 * pair["energy_theta"][0]
     difference = np.abs(pair["contact_force"] - reference["contact_force"]).max()
     assert 0 < difference < 0.25 * reference["contact_force"].max()
+
+
+CONFIG = """
+[mesh]
+file = "two_disks.xdmf"
+degree = 2
+
+[material]
+lmbda = 20.0
+mu = 20.0
+
+[nitsche]
+gamma0 = 1e-3
+
+[scheme]
+dt = 0.1
+t_end = 9.0
+
+[[dirichlet]]
+tag = 4
+value = [0.0, 0.0]
+
+[body_force]
+value = [0.0, -0.1]
+
+[[contact_pair]]
+tags = [1, 2]
+{extra}
+"""
+
+
+def _configuration(tmp_path, extra=""):
+    """The upper disk falls (gravity 0.1) from 1 above on the lower one, held at its
+    lower half and sagging too: contact at t = 7.4 (measured with the API)."""
+    from nitsche_dolfinx.meshes import save_mesh
+    from nitsche_dolfinx.twobody import mirrored_bodies_mesh
+
+    mesh, _, facets = mirrored_bodies_mesh(2, mesh_size=8.0, order=2, gap=1.0)
+    save_mesh(str(tmp_path / "two_disks.xdmf"), mesh, facets)
+    path = tmp_path / "config.toml"
+    path.write_text(CONFIG.format(extra=extra))
+    return str(path)
+
+
+def test_configuration_sets_up_a_contact_pair(tmp_path):
+    from nitsche_dolfinx.config import build_simulation, load_config
+
+    simulation = build_simulation(load_config(_configuration(tmp_path)), progress=False)
+    assert len(simulation.problem.pairs) == 2
+    history = simulation.run()
+    touching = history["t"][history["contact_force"] > 0]
+    assert touching.min() == pytest.approx(7.4, abs=1e-9)
+    assert np.diff(history["energy_theta"]).max() < 1e-10 * np.abs(history["energy_theta"]).max()
+
+
+@pytest.mark.parametrize(
+    "extra, named",
+    [
+        ('variant = "sideways"', "[[contact_pair]] #1 variant = 'sideways'"),
+        ("direction = [0.0, 0.0, 1.0]", "[[contact_pair]] #1 contact pair direction must"),
+        ("direction = [0.0, 0.0]", "[[contact_pair]] #1 direction = [0.0, 0.0]"),
+    ],
+)
+def test_configuration_refuses_a_bad_pair(tmp_path, extra, named):
+    from nitsche_dolfinx.config import ConfigError, build_simulation, load_config
+
+    with pytest.raises(ConfigError) as caught:
+        build_simulation(load_config(_configuration(tmp_path, extra)), progress=False)
+    assert named in str(caught.value)
