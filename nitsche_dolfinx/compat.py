@@ -29,6 +29,7 @@ __all__ = [
     "dofmap_array",
     "function_space",
     "has_mumps",
+    "element_degree",
     "geometry_degree",
     "geometry_dofmap",
     "gmsh_model_to_mesh",
@@ -124,6 +125,13 @@ def geometry_dofmap(mesh) -> np.ndarray:
         num_cells = len(dofs.offsets) - 1
         return dofs.array.reshape(num_cells, -1)
     return np.asarray(dofs)
+
+
+def element_degree(V) -> int:
+    """Polynomial degree of the element of ``V`` (a method of the UFL element up to 0.7, a
+    property of the basix one after)."""
+    degree = V.ufl_element().degree
+    return int(degree() if callable(degree) else degree)
 
 
 def geometry_degree(mesh) -> int:

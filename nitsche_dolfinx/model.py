@@ -251,7 +251,7 @@ class ContactProblem:
         if direction is not None:
             unit = as_array(direction, (self.gdim,), "contact pair direction")
             length = float(np.linalg.norm(unit))
-            require(length > 0, "direction", list(unit), "the direction must not be zero")
+            require(length > 0, "direction", unit.tolist(), "the direction must not be zero")
             unit = unit / length
         sides = [(tag_a, tag_b, unit)]
         if variant == "unbiased":

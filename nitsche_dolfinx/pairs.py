@@ -68,7 +68,7 @@ class _MasterSurface:
             basix.LagrangeVariant.equispaced,
         )  # fmt: skip
         self.element = basix.create_element(
-            basix.ElementFamily.P, cell_type, V.ufl_element().degree(),
+            basix.ElementFamily.P, cell_type, compat.element_degree(V),
             basix.LagrangeVariant.equispaced,
         )  # fmt: skip
         geometry = compat.geometry_dofmap(mesh)
@@ -173,7 +173,7 @@ def _surface_nodes(V, facets: np.ndarray):
     nodes = np.unique(nodes[nodes < V.dofmap.index_map.size_local])
     cell_type = _basix_cell(mesh)
     element = basix.create_element(
-        basix.ElementFamily.P, cell_type, V.ufl_element().degree(),
+        basix.ElementFamily.P, cell_type, compat.element_degree(V),
         basix.LagrangeVariant.equispaced,
     )  # fmt: skip
     geometry_element = basix.create_element(
@@ -215,11 +215,13 @@ class Pairing:
         master = _MasterSurface(V, master_facets)
         distance, facet, X, outer = master.closest(every_point, direction)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
-        nearest = comm.allreduce(distance, op=MPI.MIN) if comm.size > 1 else distance
+        nearest = np.empty_like(distance)
+        comm.Allreduce(distance, nearest, op=MPI.MIN)
         if not np.all(np.isfinite(nearest)):
             raise ValueError("the master surface of a contact pair has no facet")
-        candidate = np.where(distance == nearest, comm.rank, comm.size)
-        winner = comm.allreduce(candidate, op=MPI.MIN) if comm.size > 1 else candidate
+        candidate = np.where(distance == nearest, comm.rank, comm.size).astype(np.int64)
+        winner = np.empty_like(candidate)
+        comm.Allreduce(candidate, winner, op=MPI.MIN)
         mine = np.flatnonzero(winner == comm.rank)
 
         size = (index_map.size_local * bs, index_map.size_global * bs)

@@ -193,13 +193,14 @@ def _distribute(build, gdim: int, comm):
 
 def body_velocities(problem: ContactProblem, cell_tags, velocities: dict):
     """A Function of ``problem.V``: on the cells of each tag, its constant velocity."""
+    from . import compat
+
     V = problem.V
-    tdim = problem.mesh.topology.dim
+    dofmap = compat.dofmap_array(V)
     velocity = fem.Function(V)
     values = velocity.x.array.reshape(-1, V.dofmap.index_map_bs)
     for tag, value in velocities.items():
-        dofs = fem.locate_dofs_topological(V, tdim, cell_tags.find(tag))
-        values[dofs] = value
+        values[np.unique(dofmap[cell_tags.find(tag)])] = value
     velocity.x.scatter_forward()
     return velocity
 

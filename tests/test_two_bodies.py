@@ -201,3 +201,21 @@ def test_configuration_refuses_a_bad_pair(tmp_path, extra, named):
     with pytest.raises(ConfigError) as caught:
         build_simulation(load_config(_configuration(tmp_path, extra)), progress=False)
     assert named in str(caught.value)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("along_axis", [True, False], ids=["axis", "closest"])
+def test_parallel_disks_match_serial(along_axis):
+    """The two disks split over the ranks (each surface's partners on other ranks)."""
+    runs = []
+    for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
+        problem, _ = two_bodies_problem(
+            dim=2, mesh_size=8.0, gap=1.0, along_axis=along_axis, comm=comm
+        )
+        runs.append(Simulation(problem, HybridScheme(), dt=0.1, t_end=4.0).run())
+    parallel, serial = runs
+    assert serial["contact_force"].max() > 0
+    for column in ("energy", "energy_theta", "contact_force", "penetration_max"):
+        scale = np.abs(serial[column]).max()
+        assert np.abs(parallel[column] - serial[column]).max() <= 1e-8 * scale, column
+    np.testing.assert_array_equal(parallel["newton_iterations"], serial["newton_iterations"])
