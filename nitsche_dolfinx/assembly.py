@@ -131,6 +131,12 @@ class AffineCellSplit:
         self._activity.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         return self._activity.norm(PETSc.NormType.NORM_INFINITY) == 0.0
 
+    @property
+    def inactive(self) -> bool:
+        """Whether the facet activity was zero on every cell at the last
+        :meth:`facet_jacobian_changed` (False without an activity form)."""
+        return self._inactive
+
     def facet_jacobian_changed(self, skip_inactive: bool = True) -> bool:
         """Assemble the facet Jacobian (unless it is inactive now and was at the last
         assembly, and ``skip_inactive``); True if it differs from the last one."""

@@ -365,6 +365,10 @@ class PairCoupling:
     the iterate, the residual T^T G and the Jacobian's coupling terms (docs/method.md
     section 11). Used by :class:`~nitsche_dolfinx.solver.SNESSolver` (``coupling``).
 
+    The matrices of the coupling terms and their products with T are made once and
+    filled again at each Jacobian; while the contact terms are inactive everywhere the
+    coupling is zero and is not assembled.
+
     Args:
         pairs: The :class:`PairContact` halves of the problem.
         F: The step's residual form (with every pair's slave terms).
@@ -378,19 +382,18 @@ class PairCoupling:
         trial = ufl.TrialFunction(V)
         self.pairs, self.w = list(pairs), w
         self._G = [fem.form(G) for G in partner_residuals]
-        self._J = []
+        self._terms = []  # per pair: the three derivative forms, their matrices, products
         for pair, G in zip(self.pairs, partner_residuals):
             w_partner = pair.partners[w]
-            self._J.append(
-                tuple(
-                    fem.form(form)
-                    for form in (
-                        ufl.derivative(F, w_partner, trial),
-                        ufl.derivative(G, w, trial),
-                        ufl.derivative(G, w_partner, trial),
-                    )
+            forms = [
+                fem.form(form)
+                for form in (
+                    ufl.derivative(F, w_partner, trial),
+                    ufl.derivative(G, w, trial),
+                    ufl.derivative(G, w_partner, trial),
                 )
-            )
+            ]
+            self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
         self._g = compat.create_vector(V)
         self._Tg = self._g.duplicate()
         index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
@@ -398,8 +401,9 @@ class PairCoupling:
         owned = owned[owned < index_map.size_local * bs]
         self._bc_rows = (index_map.local_range[0] * bs + owned).astype(np.int32)
         self._owned_bc = owned
-        self._C = None
-        self._C_last = None
+        self._C = self._coupling_pattern()
+        self._C_last = None  # the coupling of the last Jacobian (None: none yet)
+        self._zero = False  # whether the last coupling was zero (inactive contact)
 
     def update(self, x: PETSc.Vec | None = None) -> None:
         """The partners of the state, and of the iterate ``x`` if given."""
@@ -420,56 +424,84 @@ class PairCoupling:
             self._Tg.array[self._owned_bc] = 0.0
             b.axpy(1.0, self._Tg)
 
-    def coupling_matrix(self) -> PETSc.Mat:
-        """The coupling terms of the Jacobian at the current iterate, with zero Dirichlet
-        rows and columns."""
+    def _products(self, index: int):
+        """Assemble pair ``index``'s derivative matrices and form their products with T
+        (into the product matrices of the last call, once they exist)."""
+        forms, matrices, products = self._terms[index]
+        T = self.pairs[index].pairing.T
+        for form, matrix in zip(forms, matrices):
+            matrix.zeroEntries()
+            fem_petsc.assemble_matrix(matrix, form)
+            matrix.assemble()
+        F_w, G_w, G_ww = matrices
+        if products is None:
+            products = [F_w.matMult(T), T.transposeMatMult(G_w), G_ww.PtAP(T)]
+            self._terms[index] = (forms, matrices, products)
+        else:
+            F_w.matMult(T, products[0])
+            T.transposeMatMult(G_w, products[1])
+            G_ww.PtAP(T, products[2])
+        return products
+
+    def _coupling_pattern(self) -> PETSc.Mat:
+        """A zero matrix with the sparsity of every coupling term."""
         total = None
-        for pair, forms in zip(self.pairs, self._J):
-            T = pair.pairing.T
-            F_w, G_w, G_ww = (self._assemble(form) for form in forms)
-            terms = [F_w.matMult(T), T.transposeMatMult(G_w), G_ww.PtAP(T)]
-            for matrix in (F_w, G_w, G_ww):
-                matrix.destroy()
-            for term in terms:
+        for index in range(len(self.pairs)):
+            for product in self._products(index):
                 if total is None:
-                    total = term
-                else:
-                    total.axpy(1.0, term, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-                    term.destroy()
-        total.zeroRowsColumns(self._bc_rows, 0.0)
+                    total = product.duplicate()
+                total.axpy(1.0, product, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        total.zeroEntries()
         return total
 
-    @staticmethod
-    def _assemble(form) -> PETSc.Mat:
-        matrix = fem_petsc.assemble_matrix(form)
-        matrix.assemble()
-        return matrix
+    def _fill(self) -> None:
+        """The coupling terms at the current iterate into C, with zero Dirichlet rows and
+        columns."""
+        C = self._C
+        C.zeroEntries()
+        for index in range(len(self.pairs)):
+            for product in self._products(index):
+                C.axpy(1.0, product, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        C.zeroRowsColumns(self._bc_rows, 0.0)
 
     def union_pattern(self, template: PETSc.Mat) -> PETSc.Mat:
         """A zero matrix with the sparsity of ``template`` and of every coupling term."""
         pattern = template.duplicate()
-        coupling = self.coupling_matrix()
-        pattern.axpy(1.0, coupling, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        coupling.destroy()
+        pattern.axpy(1.0, self._C, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         pattern.zeroEntries()
         return pattern
 
-    def jacobian_changed(self) -> bool:
-        """Assemble the coupling terms; True if they differ from the last ones."""
-        C = self.coupling_matrix()
-        if self._C is not None:
-            self._C.destroy()
-        self._C = C
-        changed = self._C_last is None or not C.equal(self._C_last)
-        if changed:
-            if self._C_last is not None:
-                self._C_last.destroy()
-            self._C_last = C.copy()
-        return changed
+    def jacobian_changed(self, inactive: bool = False) -> bool:
+        """Assemble the coupling terms (zero, without assembling, when the contact terms
+        are ``inactive`` everywhere); True if they differ from the last ones."""
+        if inactive:
+            changed, self._zero = not self._zero or self._C_last is None, True
+            if changed:
+                self._C.zeroEntries()
+                self._remember()
+            return changed
+        self._zero = False
+        self._fill()
+        if self._C_last is not None and self._C.equal(self._C_last):
+            return False
+        self._remember()
+        return True
+
+    def _remember(self) -> None:
+        if self._C_last is None:
+            self._C_last = self._C.copy()
+        else:
+            self._C.copy(self._C_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """A += the coupling terms of the last :meth:`jacobian_changed`."""
         A.axpy(1.0, self._C, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
 
     def petsc_objects(self) -> list:
-        return [m for m in (self._g, self._Tg, self._C, self._C_last) if m is not None]
+        objects = [self._g, self._Tg, self._C]
+        if self._C_last is not None:
+            objects.append(self._C_last)
+        for _, matrices, products in self._terms:
+            objects.extend(matrices)
+            objects.extend(products or [])
+        return objects

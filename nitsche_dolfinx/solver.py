@@ -390,8 +390,9 @@ class SNESSolver:
         """Assemble the Jacobian's non-constant terms (facets, coupling between bodies);
         True if any differs from the last assembly."""
         changed = self._split.facet_jacobian_changed(self.skip_inactive_facets)
-        if self._coupling is not None:
-            changed = self._coupling.jacobian_changed() or changed
+        if self._coupling is not None:  # zero where the facet terms are inactive
+            inactive = self.skip_inactive_facets and self._split.inactive
+            changed = self._coupling.jacobian_changed(inactive) or changed
         return changed
 
     def _exact_before(self, iteration: int) -> bool:
