@@ -19,9 +19,14 @@ dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
 - :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.shapes`: loading meshes, gmsh bodies;
 - :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`, :mod:`~nitsche_dolfinx.cases`;
 - :mod:`~nitsche_dolfinx.config`, :mod:`~nitsche_dolfinx.cli`: the ``nitsche-dolfinx`` command;
+- :mod:`~nitsche_dolfinx.pairs`, :mod:`~nitsche_dolfinx.twobody`: contact between two bodies;
 - :mod:`~nitsche_dolfinx.compat`: every dolfinx version difference (0.5 to 0.11).
+
+Importing the package silences the compiler lines that form compilation logs on
+dolfinx 0.5 (set ``NITSCHE_DOLFINX_VERBOSE=1`` to see them).
 """
 
+from . import compat
 from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .diagnostics import BoundaryAverage
 from .history import HISTORY_COLUMNS, History
@@ -43,6 +48,8 @@ from .simulation import Simulation
 from .solver import SNESSolver, SolverError
 
 __version__ = "0.1.0"
+
+compat.quiet_form_compilation()
 
 __all__ = [
     "BAR_CLAMPED",

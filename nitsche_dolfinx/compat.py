@@ -337,3 +337,26 @@ def own_symbols():
         yield
     finally:
         sys.setdlopenflags(flags)
+
+
+class _BuildLogFilter:
+    """Drops the INFO lines of C compilers that setuptools logs on the root logger while
+    FFCx/cffi compile a form (dolfinx 0.5: pages of ``INFO:root ... gcc ...``)."""
+
+    @staticmethod
+    def filter(record) -> bool:
+        build = "distutils" in record.pathname or "setuptools" in record.pathname
+        return not (build and record.levelno < 30)
+
+
+def quiet_form_compilation() -> None:
+    """Silence the compiler lines of form compilation, unless the environment variable
+    ``NITSCHE_DOLFINX_VERBOSE`` is set (idempotent)."""
+    import logging
+
+    root = logging.getLogger()
+    if os.environ.get("NITSCHE_DOLFINX_VERBOSE") or any(
+        isinstance(f, _BuildLogFilter) for f in root.filters
+    ):
+        return
+    root.addFilter(_BuildLogFilter())

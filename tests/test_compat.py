@@ -196,3 +196,28 @@ def test_mixed_function_space_and_collapse(square):
     assert len(dofs) == local(V) and len(multiplier_dofs) == local(Q)
     assert len(np.intersect1d(dofs, multiplier_dofs)) == 0
     assert len(dofs) + len(multiplier_dofs) == local(W)
+
+
+COMPILE_A_NEW_FORM = """
+import random
+import ufl
+from dolfinx import fem, mesh
+from mpi4py import MPI
+import nitsche_dolfinx
+m = mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
+x = ufl.SpatialCoordinate(m)
+fem.form(ufl.sin({c!r} * x[0]) * ufl.dx(domain=m))
+"""
+
+
+def test_form_compilation_is_quiet():
+    """No compiler lines on the terminal when a form is compiled (dolfinx 0.5 logs pages of
+    them); NITSCHE_DOLFINX_VERBOSE brings them back where the JIT prints them."""
+    import random
+    import subprocess
+    import sys
+
+    code = COMPILE_A_NEW_FORM.format(c=random.random())
+    quiet = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert quiet.returncode == 0, quiet.stderr
+    assert "INFO:root" not in quiet.stderr and "gcc" not in quiet.stderr
