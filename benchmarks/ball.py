@@ -19,6 +19,13 @@ Usage::
     python benchmarks/ball.py --all                 # serial and mpirun -n 2, one table
     python benchmarks/ball.py --mesh-sizes 8 6 --t-end 20 --linear-solver lu-lagged
     python benchmarks/ball.py --mesh-sizes 8 --no-reuse   # the straightforward loop
+    python benchmarks/ball.py --mesh-sizes 8 6 5 4 3 --t-end 20 --linear-solver auto --out DIR
+
+The last is the scaling mode (``--out``): the ball alone (its free steps before the
+impact, its contact steps after), each mesh size serially and under ``mpirun -n 2``
+in a process of its own, written to ``DIR/scaling.csv`` (one row per mesh size and
+number of ranks, a row as soon as it is measured) and ``DIR/scaling.png`` (time per
+step against DOFs, log-log).
 
 The figures are medians measured in one run on a shared machine: compare ratios
 measured together rather than absolute times across runs.
@@ -27,6 +34,7 @@ measured together rather than absolute times across runs.
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import os
 import resource
@@ -44,6 +52,16 @@ from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 
 #: A variant of the library's presets for comparison: its "lu" with PETSc's own LU.
 PETSC_LU = {"pc_type": "lu", "pc_factor_mat_solver_type": "petsc"}
+
+
+def run_command(command: list[str]) -> subprocess.CompletedProcess:
+    """Run a benchmark process; exit naming it if it fails. It gets the environment this
+    process started with: MPI, started here as a singleton, adds variables of its own at
+    the C level that make a child ``mpirun`` fail without a word."""
+    result = subprocess.run(command, capture_output=True, text=True, env=dict(os.environ))
+    if result.returncode != 0:
+        sys.exit(f"{' '.join(command)} failed:\n{result.stderr[-3000:]}")
+    return result
 
 
 def log_time(event: str) -> float:
@@ -102,6 +120,130 @@ def measure(
     }
 
 
+#: The columns of ``scaling.csv``.
+SCALING_COLUMNS = (
+    "h",
+    "ranks",
+    "dofs",
+    "steps",
+    "newton_per_step",
+    "krylov_per_step",
+    "median_free_step_s",
+    "median_contact_step_s",
+    "loop_s",
+    "peak_memory_mb",
+    "mesh_s",
+    "setup_s",
+    "linear_solver",
+)
+
+
+def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: str) -> dict:
+    """The ball once, with the obstacle: its free steps (no contact force) and its contact
+    steps; Newton and Krylov iterations per step; the peak memory of the largest rank."""
+    comm = MPI.COMM_WORLD
+    start = time.perf_counter()
+    problem = impact_problem(dim=3, mesh_size=mesh_size, comm=comm)
+    mesh_seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    petsc = linear_solver == "lu-petsc"
+    simulation = Simulation(
+        problem,
+        make_scheme(scheme),
+        dt=0.1,
+        t_end=t_end,
+        petsc_options=PETSC_LU if petsc else None,
+        linear_solver="lu" if petsc else linear_solver,
+    )
+    setup_seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX) - mesh_seconds
+    krylov = []
+
+    def count(simulation):
+        krylov.append(simulation.solver.snes.getLinearSolveIterations())
+
+    start = time.perf_counter()
+    history = simulation.run(callback=count)
+    loop = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    steps = np.max(comm.allgather(np.asarray(history["step_seconds"][1:])), axis=0)
+    in_contact = np.asarray(history["contact_force"][1:]) > 0
+    memory = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.MAX)
+
+    def median(selected):
+        return float(np.median(steps[selected])) if selected.any() else float("nan")
+
+    return {
+        "h": mesh_size,
+        "ranks": comm.size,
+        "dofs": simulation.dofs,
+        "steps": len(steps),
+        "newton_per_step": float(np.mean(history["newton_iterations"][1:])),
+        "krylov_per_step": float(np.mean(krylov)),
+        "median_free_step_s": median(~in_contact),
+        "median_contact_step_s": median(in_contact),
+        "loop_s": loop,
+        "peak_memory_mb": memory / 1024.0,
+        "mesh_s": mesh_seconds,
+        "setup_s": setup_seconds,
+        "linear_solver": simulation.solver_description,
+    }
+
+
+def scaling(args) -> None:
+    """The scaling mode: each mesh size and number of ranks in a process of its own."""
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, "scaling.csv")
+    rows = []
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=SCALING_COLUMNS)
+        writer.writeheader()
+        for mesh_size in args.mesh_sizes:
+            for ranks in args.ranks:
+                command = [sys.executable, os.path.abspath(__file__), "--scaling-row"]
+                command += ["--mesh-sizes", f"{mesh_size:g}", "--t-end", f"{args.t_end:g}"]
+                command += ["--linear-solver", args.linear_solver, "--scheme", args.scheme]
+                if ranks > 1:
+                    command = ["mpirun", "-n", str(ranks), *command]
+                result = run_command(command)
+                row = json.loads([x for x in result.stdout.splitlines() if x[:1] == "{"][-1])
+                rows.append(row)
+                writer.writerow(row)
+                handle.flush()
+                print(json.dumps(row), flush=True)
+    plot_scaling(rows, os.path.join(args.out, "scaling.png"))
+
+
+def plot_scaling(rows: list[dict], path: str) -> None:
+    """Time per step against DOFs, log-log: free and contact steps for each number of
+    ranks, and a line of slope 1 through the smallest serial free step."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=(6.0, 4.2))
+    for ranks in sorted({row["ranks"] for row in rows}):
+        mine = sorted((row for row in rows if row["ranks"] == ranks), key=lambda r: r["dofs"])
+        dofs = [row["dofs"] for row in mine]
+        for column, marker, what in (
+            ("median_free_step_s", "o", "free"),
+            ("median_contact_step_s", "s", "contact"),
+        ):
+            style = "-" if ranks == 1 else "--"
+            label = f"{what} step, {ranks} rank{'s' if ranks > 1 else ''}"
+            axes.loglog(dofs, [row[column] for row in mine], style, marker=marker, label=label)
+    first = min(rows, key=lambda row: (row["dofs"], row["ranks"]))
+    reach = np.array([first["dofs"], max(row["dofs"] for row in rows)])
+    slope = first["median_free_step_s"] * reach / reach[0]
+    axes.loglog(reach, slope, ":", color="grey", label="DOFs$^1$")
+    axes.set_xlabel("DOFs")
+    axes.set_ylabel("median time per step (s)")
+    axes.set_title(f"ball, P2, tau = 0.1: {rows[0]['linear_solver']}", fontsize=9)
+    axes.legend(fontsize=7)
+    axes.grid(True, which="both", alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(path, dpi=90)
+    plt.close(figure)
+
+
 def table(rows: list[dict]) -> str:
     """The Markdown table of the benchmark."""
     lines = [
@@ -133,6 +275,11 @@ def main() -> None:
     parser.add_argument("--t-end", type=float, default=40.0)
     parser.add_argument("--scheme", default="hybrid")
     parser.add_argument("--linear-solver", choices=[*LINEAR_SOLVERS, "lu-petsc"], default="lu")
+    parser.add_argument("--out", help="scaling mode: write OUT/scaling.csv and OUT/scaling.png")
+    parser.add_argument(
+        "--ranks", type=int, nargs="+", default=[1, 2], help="scaling mode: numbers of ranks"
+    )
+    parser.add_argument("--scaling-row", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--all", action="store_true", help="serial and mpirun -n 2, one table")
     parser.add_argument(
         "--no-reuse",
@@ -142,6 +289,14 @@ def main() -> None:
     parser.add_argument("--json", action="store_true", help="print the rows as JSON lines")
     args = parser.parse_args()
 
+    if args.scaling_row:  # one row of the scaling mode, in this process
+        row = measure_scaling(args.mesh_sizes[0], args.t_end, args.linear_solver, args.scheme)
+        if MPI.COMM_WORLD.rank == 0:
+            print(json.dumps(row), flush=True)
+        return
+    if args.out is not None:
+        scaling(args)
+        return
     if args.all:
         rows = []
         forwarded = [a for a in sys.argv[1:] if a != "--all"]
@@ -149,9 +304,7 @@ def main() -> None:
             command = [sys.executable, os.path.abspath(__file__), *forwarded, "--json"]
             if ranks > 1:
                 command = ["mpirun", "-n", str(ranks), *command]
-            result = subprocess.run(command, capture_output=True, text=True)
-            if result.returncode != 0:
-                sys.exit(f"{' '.join(command)} failed:\n{result.stderr[-3000:]}")
+            result = run_command(command)
             rows += [json.loads(line) for line in result.stdout.splitlines() if line[:1] == "{"]
         print(table(rows))
         return

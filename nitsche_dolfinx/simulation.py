@@ -65,10 +65,11 @@ class Simulation:
             Newton guarded by a reference state (the default; False: plain semismooth
             Newton on [P_t]_r); see :class:`~nitsche_dolfinx.friction.GuardedNewton`
             and docs/method.md section 8.
-        linear_solver: A preset of :mod:`nitsche_dolfinx.linear_solvers` (``"lu"``,
-            ``"lu-lagged"``, ``"cg-gamg"``, ``"gmres-gamg"``); ``petsc_options`` win
-            over its options, and it sets ``preconditioner_lag``. None: the solver's
-            defaults.
+        linear_solver: A preset of :mod:`nitsche_dolfinx.linear_solvers` (``"auto"``,
+            ``"lu"``, ``"lu-lagged"``, ``"cg-jacobi"``, ``"cg-gamg"``, ``"gmres-gamg"``);
+            ``petsc_options`` win over its options, and it sets ``preconditioner_lag``.
+            ``"auto"`` chooses from the problem and ``dt`` (docs/method.md section 8).
+            None: the solver's defaults (lu).
         max_step_cuts: In :meth:`run`, a step whose Newton solve fails (with full steps,
             then with a line search) is replaced by two half steps, and those again,
             down to tau / 2^max_step_cuts; then the run stops with the last converged
@@ -111,7 +112,7 @@ class Simulation:
         self.max_step_cuts = int(max_step_cuts)
         preset = None
         if linear_solver is not None:
-            preset = linear_solver_preset(linear_solver, problem.mesh.comm)
+            preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
             petsc_options = {**preset.petsc_options, **(petsc_options or {})}
             preconditioner_lag = preset.preconditioner_lag
         #: The linear solver in words, for summaries.
