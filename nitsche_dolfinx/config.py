@@ -137,6 +137,8 @@ def load_config(path: str) -> dict:
         ConfigError: The file is missing, is not TOML, or is invalid.
     """
     path = str(path)
+    if os.path.isdir(path):
+        raise ConfigError(f"{path}: the configuration is a folder, not a TOML file")
     if not os.path.isfile(path):
         raise ConfigError(f"{path}: configuration file does not exist")
     toml = _toml_module()
@@ -150,8 +152,11 @@ def load_config(path: str) -> dict:
     config["mesh"]["file"] = os.path.join(base, config["mesh"]["file"])
     if "dir" in config.get("output", {}):
         config["output"]["dir"] = os.path.join(base, config["output"]["dir"])
-    if not os.path.isfile(config["mesh"]["file"]):
-        raise ConfigError(f"{path}: [mesh] file {config['mesh']['file']!r} does not exist")
+    mesh_file = config["mesh"]["file"]
+    if os.path.isdir(mesh_file):
+        raise ConfigError(f"{path}: [mesh] file {mesh_file!r} is a folder, not a mesh file")
+    if not os.path.isfile(mesh_file):
+        raise ConfigError(f"{path}: [mesh] file {mesh_file!r} does not exist")
     return config
 
 

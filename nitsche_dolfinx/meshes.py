@@ -140,6 +140,8 @@ def load_mesh(
         ValueError: The file is missing, of an unknown kind, or cannot be read.
     """
     path = str(path)
+    if os.path.isdir(path):
+        raise ValueError(f"mesh file {path!r} is a folder, not a mesh file")
     if not os.path.isfile(path):
         raise ValueError(f"mesh file {path!r} does not exist")
     extension = os.path.splitext(path)[1].lower()

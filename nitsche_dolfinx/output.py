@@ -427,7 +427,9 @@ def continue_solution(path: str, t: float, step: int, comm) -> tuple[str, bool]:
 def ensure_directory(path: str, comm) -> str:
     """Create the output folder (rank 0) and check that it can be written."""
     error = None
-    if comm.rank == 0:
+    if comm.rank == 0 and os.path.exists(path) and not os.path.isdir(path):
+        error = f"output folder {path!r} is a file, not a folder"
+    elif comm.rank == 0:
         try:
             os.makedirs(path, exist_ok=True)
             probe = os.path.join(path, ".write-test")

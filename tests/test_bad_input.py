@@ -9,7 +9,7 @@ import math
 import os
 
 import pytest
-from runs import REPO, assert_one_line_error, ring_config, run
+from runs import MPIRUN, REPO, assert_one_line_error, ring_config, run
 
 from nitsche_dolfinx import (
     ContactProblem,
@@ -20,6 +20,7 @@ from nitsche_dolfinx import (
     make_scheme,
 )
 from nitsche_dolfinx.cases import bar_problem
+from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
 from nitsche_dolfinx.shapes import check_body_mesh
 
@@ -99,6 +100,21 @@ API = {
     "starts-inside-obstacle": (shifted_ring, "inside an obstacle"),
     "mesh-size-tiny": (lambda: check_body_mesh(1e-6, 2, 20.0), "mesh_size=1e-06"),
     "mesh-size-too-large": (lambda: check_body_mesh(50.0, 2, 20.0), "got 50.0"),
+    "max-step-cuts-negative": (
+        lambda: Simulation(bar(), HybridScheme(), dt=0.1, t_end=1.0, max_step_cuts=-1),
+        "max_step_cuts=-1",
+    ),
+    "max-step-cuts-float": (lambda: TimeStepping(0.1, 1.0, 1.5), "max_step_cuts=1.5"),
+    "gamma0-scaling-unknown": (lambda: bar(gamma0_scaling="stress"), "gamma0_scaling='stress'"),
+    "gamma0-E-too-large": (lambda: bar(gamma0=1e3), "gamma0 * E = 1e+03"),
+    "mesh-file-is-a-folder": (lambda: load_mesh(REPO), "is a folder, not a mesh file"),
+    "pair-same-tag": (lambda: bar().add_contact_pair(1, 1), "two surfaces, got 1 twice"),
+    "pair-variant": (lambda: bar().add_contact_pair(1, 2, variant="x"), "variant='x'"),
+    "pair-with-friction": (lambda: ring(friction=0.1).add_contact_pair(1, 2), "frictionless"),
+    "pair-direction-zero": (
+        lambda: bar().add_contact_pair(1, 2, direction=[0.0]),
+        "direction=[0.0]",
+    ),
 }
 
 
@@ -143,6 +159,29 @@ TOML = {
     "gamma0-zero": ({"gamma0 = 1e-6": "gamma0 = 0.0"}, "[nitsche] gamma0 = 0.0"),
     "degree-3": ({"degree = 1": "degree = 3"}, "[mesh] degree = 3"),
     "output-every-negative": ({"every = 10": "every = -5"}, "[output] every = -5"),
+    "gamma0-scaling-unknown": (
+        {"gamma0 = 1e-6": 'gamma0 = 1e-6\ngamma0_scaling = "stress"'},
+        "[nitsche] gamma0_scaling = 'stress'",
+    ),
+    "max-step-cuts-negative": (
+        {"t_end = 1.0": "t_end = 1.0\nmax_step_cuts = -1"},
+        "[scheme] max_step_cuts = -1",
+    ),
+    "unknown-table": ({"[output]": "[outputs]\nevery = 1\n\n[output]"}, "unknown table [outputs]"),
+    "unknown-key": ({"degree = 1": "degree = 1\norder = 2"}, "[mesh] unknown key 'order'"),
+    "nu-half": (
+        {"nu = 0.3": "nu = 0.5"},
+        "[material] Poisson's ratio nu must lie in (-1, 1/2), got nu=0.5",
+    ),
+    "scheme-unknown": ({'name = "hybrid"': 'name = "leapfrog"'}, "[scheme] name = 'leapfrog'"),
+    "pair-one-tag": (
+        {"[output]": "[[contact_pair]]\ntags = [1]\n\n[output]"},
+        "[[contact_pair]] #1 tags must be a list of two integer tags",
+    ),
+    "mesh-file-is-a-folder": (
+        {'"ring_2d.msh"': '"."'},
+        "is a folder, not a mesh file",
+    ),
 }
 
 
@@ -156,6 +195,27 @@ def test_configuration_refuses_bad_value(tmp_path, name):
     assert not (out / "history.csv").exists()
 
 
+# -- the command line's own flags ----------------------------------------------------------
+
+
+def test_cli_refuses_bad_flags(tmp_path):
+    """Each case: exit status 2, one line naming the flag or the file, nothing computed."""
+    config = ring_config(str(tmp_path), t_end=1.0)
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    cases = [
+        (["run", config, "--checkpoint-every", "-1"], "--checkpoint-every -1"),
+        (["run", config, "--out", str(a_file)], "is a file, not a folder"),
+        (["run", str(tmp_path / "missing.toml")], "configuration file does not exist"),
+        (["run", str(tmp_path)], "the configuration is a folder, not a TOML file"),
+        (["run", config, "--restart", "--out", str(tmp_path / "new")], "no checkpoint in"),
+    ]
+    for flags, named in cases:
+        result = run("-m", "nitsche_dolfinx", *flags)
+        assert_one_line_error(result, named)
+    assert not list(tmp_path.glob("**/history.csv"))
+
+
 # -- the demos' flags --------------------------------------------------------------------
 
 FLAGS = {
@@ -165,6 +225,14 @@ FLAGS = {
     "bar-nx-zero": (["demos/bar_1d.py", "--nx", "0"], "--nx 0"),
     "block-mu-negative": (["demos/friction_block_2d.py", "--mu", "-0.5"], "--mu -0.5"),
     "ring-dt-zero": (["demos/ring_2d.py", "--dt", "0"], "--dt 0"),
+    "ring-max-step-cuts": (["demos/ring_2d.py", "--max-step-cuts", "99"], "--max-step-cuts 99"),
+    "ring-mesh-folder": (["demos/ring_2d.py", "--mesh", "demos"], "is a folder, not a mesh file"),
+    "disk-degree-3": (["demos/disk_2d.py", "--degree", "3"], "--degree 3"),
+    "bar-gamma0-zero": (["demos/bar_1d.py", "--gamma0", "0"], "--gamma0 0"),
+    "block-nx-zero": (["demos/friction_block_2d.py", "--nx", "0"], "nx=0"),
+    "compare-nx-zero": (["demos/compare_methods_1d.py", "--nx", "0"], "nx=0"),
+    "convergence-gamma0": (["demos/convergence_1d.py", "--gamma0", "-1"], "--gamma0 -1"),
+    "ball-max-step-cuts": (["demos/ball_3d.py", "--max-step-cuts", "31"], "--max-step-cuts 31"),
 }
 
 
@@ -175,3 +243,13 @@ def test_demo_refuses_bad_flag(tmp_path, name):
     result = run(*flags, "--out", str(out))
     assert_one_line_error(result, named)
     assert not (out / "history.csv").exists()
+
+
+def test_refusal_under_mpi_is_one_line(tmp_path):
+    """Under mpirun -n 2 a bad TOML value is reported once (by rank 0), exit status 2."""
+    if MPIRUN is None:
+        pytest.skip("no mpirun")
+    config = ring_config(str(tmp_path), {"nu = 0.3": "nu = 0.5"}, t_end=1.0)
+    result = run("-m", "nitsche_dolfinx", "run", config, "--out", str(tmp_path / "o"), ranks=2)
+    assert_one_line_error(result, "got nu=0.5")
+    assert result.stderr.count("nitsche-dolfinx: error:") == 1
