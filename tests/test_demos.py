@@ -53,3 +53,23 @@ def test_bar_demo_bad_flags(tmp_path, flags, named):
     assert result.returncode != 0
     assert named in result.stderr
     assert "Traceback" not in result.stderr + result.stdout
+
+
+def test_two_bars_demo_contract(tmp_path):
+    """SPEC section 7: the columns, the momentum kept, the velocities exchanged."""
+    out = tmp_path / "bars"
+    result = run_demo(
+        "two_bars_1d.py", "--nx", "20", "--dt", "0.075", "--t-end", "3", "--no-plot",
+        "--quiet", "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    with open(out / "history.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header[:8] == [
+        "t", "energy", "energy_theta", "contact_force", "momentum", "v_left", "v_right",
+        "newton_iterations",
+    ]  # fmt: skip
+    history = np.loadtxt(out / "history.csv", delimiter=",", skiprows=1)
+    assert np.abs(history[:, 4]).max() < 1e-8
+    assert history[-1, 6] > 0.45 and history[-1, 5] < -0.45  # exchanged
+    assert "exit velocities" in result.stdout
