@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 import pytest
+from runs import assert_xdmf_readable
 
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
@@ -73,3 +74,26 @@ def test_two_bars_demo_contract(tmp_path):
     assert np.abs(history[:, 4]).max() < 1e-8
     assert history[-1, 6] > 0.45 and history[-1, 5] < -0.45  # exchanged
     assert "exit velocities" in result.stdout
+
+
+def test_two_disks_demo_contract(tmp_path):
+    """SPEC section 7: the columns of section 6 then the momentum; the symmetric check
+    against one disk on the plane; both bodies in solution.xdmf."""
+    out = tmp_path / "disks"
+    result = run_demo(
+        "two_disks_2d.py", "--t-end", "2", "--output-every", "10", "--no-plot", "--quiet",
+        "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    with open(out / "history.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header == [
+        "t", "energy", "energy_theta", "kinetic", "elastic", "potential", "contact_force",
+        "contact_area", "penetration_max", "newton_iterations", "step_seconds",
+        "momentum_x", "momentum_y",
+    ]  # fmt: skip
+    assert "580 DOFs" in result.stdout
+    line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
+    assert float(line.split("differs by ")[1].split()[0]) < 1e-10
+    times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
+    assert times[-1] == pytest.approx(2.0)

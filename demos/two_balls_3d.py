@@ -1,0 +1,176 @@
+# ---
+# jupyter:
+#   jupytext:
+#     text_representation:
+#       extension: .py
+#       format_name: light
+#       format_version: '1.5'
+# ---
+
+# # Two elastic balls colliding head-on: contact between two deformable bodies
+#
+# Two balls of the talk's impact test (radius 20, $\lambda = \mu = 20$,
+# $\rho = 1$, P2 on a curved mesh), mirror images of each other, move towards
+# each other along the $z$ axis at speeds $\pm v_0$, without gravity. They
+# touch, flatten against each other, push each other back and fly apart.
+# `demos/two_disks_2d.py` runs this script in 2D (plane strain).
+#
+# It shows how to
+#
+# - build two bodies in one mesh (`nitsche_dolfinx.twobody.two_bodies_problem`:
+#   the gmsh ball of `shapes.py` and its mirror image) and pair their facing
+#   halves with `ContactProblem.add_contact_pair`, along the collision axis
+#   (`--pairing axis`) or with closest points (`--pairing closest`);
+# - check the pair against one ball on a rigid plane: paired along the axis,
+#   the unbiased pair with $\gamma_0$ is exactly one ball hitting the plane of
+#   symmetry with $\gamma_0/2$ (docs/method.md section 11);
+# - record the total momentum, which the contact terms keep.
+#
+# With the hybrid scheme and $\Theta = 1$, $E_\Theta$ never increases.
+
+# +
+import argparse
+import os
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    add_output_every_argument,
+    check_output_folder,
+    finite_float,
+    method_parameters,
+    one_line_errors,
+    scheme_from_arguments,
+)
+from nitsche_dolfinx.history import HISTORY_COLUMNS
+from nitsche_dolfinx.parameters import require
+from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.shapes import ball_mesh, check_body_mesh, disk_mesh
+from nitsche_dolfinx.twobody import two_bodies_problem
+
+# -
+
+
+def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        description=f"Two elastic {body}s colliding head-on ({dim}D), Nitsche contact "
+        "between two bodies.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    add_method_arguments(parser, gamma0=1e-3, degree=2, dt=0.1, t_end=20.0)
+    parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
+    parser.add_argument("--v0", type=finite_float, default=1.0, help="speed of each body")
+    parser.add_argument("--gap", type=finite_float, default=1.0, help="initial gap")
+    parser.add_argument("--variant", choices=("unbiased", "biased"), default="unbiased")
+    parser.add_argument(
+        "--pairing", choices=("axis", "closest"), default="axis",
+        help="pair the surfaces along the collision axis, or with closest points",
+    )  # fmt: skip
+    add_output_every_argument(parser)
+    parser.add_argument("--out", default=os.path.join("out", f"two_{body}s_{dim}d"))
+    parser.add_argument(
+        "--compare", action=argparse.BooleanOptionalAction, default=True,
+        help="also run one body on the rigid plane of symmetry with gamma0/2 (OUT/plane)",
+    )  # fmt: skip
+    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    parser.add_argument("--no-plot", action="store_true", help="no energy figure")
+    return parser
+
+
+def check_arguments(args, dim: int) -> None:
+    method_parameters(args)
+    require(args.v0 > 0, "v0", args.v0, "the bodies must move towards each other")
+    require(args.gap >= 0, "gap", args.gap, "the gap must be >= 0")
+    check_body_mesh(args.mesh_size, order=2, radius=20.0, dim=dim)
+    check_output_folder(args.out)
+
+
+# ## The pair and the body on a plane
+
+
+def run_pair(args, dim: int):
+    problem, _ = two_bodies_problem(
+        dim=dim, mesh_size=args.mesh_size, v0=args.v0, gap=args.gap, degree=args.degree,
+        gamma0=args.gamma0, nitsche_theta=args.nitsche_theta, variant=args.variant,
+        along_axis=args.pairing == "axis",
+    )  # fmt: skip
+    momentum = [f"momentum_{c}" for c in "xyz"[:dim]]
+    return _run(args, problem, args.out, (*HISTORY_COLUMNS[:11], *momentum), args.quiet)
+
+
+def run_on_plane(args, dim: int):
+    """The upper body alone, hitting the plane of symmetry with gamma0 / 2."""
+    center = [0.0] * dim
+    center[-1] = 20.0 + args.gap / 2
+    mesh, tags = (ball_mesh if dim == 3 else disk_mesh)(args.mesh_size, 2, 20.0, center)
+    problem = ContactProblem(
+        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), args.degree, args.gamma0 / 2,
+        args.nitsche_theta,
+    )  # fmt: skip
+    up = [0.0] * dim
+    up[-1] = 1.0
+    problem.add_obstacle(PlaneObstacle([0.0] * dim, up), 1)
+    problem.set_initial_conditions(velocity=[-args.v0 * c for c in up])
+    return _run(args, problem, os.path.join(args.out, "plane"), HISTORY_COLUMNS[:11], True)
+
+
+def _run(args, problem, out, columns, quiet):
+    simulation = Simulation(
+        problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
+        progress=not quiet, max_step_cuts=args.max_step_cuts,
+    )  # fmt: skip
+    start = time.perf_counter()
+    history = simulation.run(out=out, columns=columns, output_every=args.output_every)
+    seconds = MPI.COMM_WORLD.allreduce(time.perf_counter() - start, op=MPI.MAX)
+    return history, simulation.dofs, seconds
+
+
+def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> None:
+    parser = make_parser(dim, body)
+    args = parser.parse_args(argv)
+    with one_line_errors(parser):
+        check_arguments(args, dim)
+        pair, dofs, seconds = run_pair(args, dim)
+        plane = run_on_plane(args, dim) if args.compare else None
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    print(f"{dofs} DOFs")
+    contact = pair.contact_interval()
+    touching = "never" if contact is None else f"from t = {contact[0]:.3f} to {contact[1]:.3f}"
+    momentum = max(np.abs(pair[f"momentum_{c}"]).max() for c in "xyz"[:dim])
+    mass = np.pi * 20.0**2 if dim == 2 else 4 / 3 * np.pi * 20.0**3
+    print(f"{len(pair) - 1} steps of tau = {args.dt:g} in {seconds:.1f} s; contact {touching}")
+    print(
+        f"E(T)/E(0) - 1 = {pair.energy_drift():+.3e}, largest rise of E_Theta "
+        f"{pair.largest_rise():.2e}, largest |momentum| / (m v0) "
+        f"{momentum / mass / args.v0:.1e}, Newton {pair.mean_newton_iterations():.2f} per step"
+    )
+    if plane is not None:
+        one = plane[0]
+        force = np.abs(pair["contact_force"] - one["contact_force"]).max()
+        force /= max(one["contact_force"].max(), 1e-300)
+        energy = np.abs(pair["energy_theta"] - 2 * one["energy_theta"]).max()
+        energy /= 2 * one["energy_theta"][0]
+        print(
+            f"against one {body} on the plane with gamma0/2: contact force differs by "
+            f"{force:.2e} relative, E_Theta by {energy:.2e}"
+        )
+    print(f"history: {os.path.join(args.out, 'history.csv')}")
+    if args.output_every > 0:
+        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    if not args.no_plot:
+        title = (
+            rf"two {body}s, {args.variant}, pairing {args.pairing}, "
+            rf"$\gamma_0 = {latex_number(args.gamma0)}$, $h = {args.mesh_size:g}$, "
+            rf"$\tau = {latex_number(args.dt)}$"
+        )
+        energy_figure([pair], [f"two {body}s"], ["tab:blue"], title,
+                      os.path.join(args.out, "energy.png"))  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
