@@ -17,12 +17,15 @@ from mpi4py import MPI
 
 from .material import Material
 from .model import ContactProblem
+from .obstacles import PlaneObstacle
 
 __all__ = [
     "LOWER_BODY",
     "LOWER_CONTACT",
     "UPPER_BODY",
     "UPPER_CONTACT",
+    "ball_on_slab_mesh",
+    "ball_on_slab_problem",
     "mirrored_bodies_mesh",
     "add_body_velocity_probes",
     "body_velocities",
@@ -279,3 +282,102 @@ def add_body_velocity_probes(simulation, cell_tags, names: dict, component: int 
     velocity = simulation.v[problem.gdim - 1 if component == -1 else component]
     for tag, name in names.items():
         simulation.add_probe(name, BoundaryAverage(problem.mesh, velocity, dx(tag)))
+
+
+#: Tags of the ball-on-slab mesh: cells of the ball and of the slab; the ball's lower half,
+#: the slab's top and its bottom.
+BALL, SLAB = 1, 2
+BALL_BOTTOM, SLAB_TOP, SLAB_BOTTOM = 1, 2, 3
+
+
+def ball_on_slab_mesh(
+    dim: int = 3,
+    mesh_size: float = 8.0,
+    radius: float = 20.0,
+    width: float = 80.0,
+    thickness: float = 10.0,
+    gap: float = 1.0,
+    comm=MPI.COMM_WORLD,
+):
+    """A ball (``dim=3``; a disk in 2D) of ``radius`` whose lowest point is ``gap`` above a
+    slab (-width/2, width/2)^(dim-1) x (0, thickness) resting on z = 0; second-order
+    geometry. Cells :data:`BALL`, :data:`SLAB`; facets :data:`BALL_BOTTOM` (the lower half
+    of the ball's boundary), :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`. Returns
+    ``(mesh, cell_tags, facet_tags)``."""
+    import math
+
+    from .shapes import _mesh, _set_sizes, check_body_mesh, gmsh_session
+
+    if dim not in (2, 3):
+        raise ValueError(f"the ball on a slab is 2D or 3D, got dim={dim!r}")
+    check_body_mesh(mesh_size, order=2, radius=radius, dim=dim)
+    if not (width > 2 * mesh_size and thickness > mesh_size / 4 and gap >= 0):
+        raise ValueError(f"slab {width!r} x {thickness!r} or gap {gap!r} out of range")
+    centre = thickness + gap + radius
+
+    def build():
+        import gmsh
+
+        gmsh.model.add("ball on slab")
+        occ = gmsh.model.occ
+        if dim == 3:
+            lower = occ.addSphere(0, 0, centre, radius, angle1=-math.pi / 2, angle2=0.0)
+            upper = occ.addSphere(0, 0, centre, radius, angle1=0.0, angle2=math.pi / 2)
+            occ.fragment([(3, lower)], [(3, upper)])
+            occ.addBox(-width / 2, -width / 2, 0, width, width, thickness)
+        else:
+            lower = occ.addCircle(0, centre, 0, radius, angle1=math.pi, angle2=2 * math.pi)
+            upper = occ.addCircle(0, centre, 0, radius, angle1=0.0, angle2=math.pi)
+            _, (low, up) = occ.fragment([(1, lower)], [(1, upper)])
+            occ.addPlaneSurface([occ.addCurveLoop([t for _, t in low + up])])
+            occ.addRectangle(-width / 2, 0, 0, width, thickness)
+        occ.synchronize()
+        ball, slab, bottom, top, base = [], [], [], [], []
+        tolerance = 1e-4 * thickness
+        for _, entity in gmsh.model.getEntities(dim):
+            height = occ.getCenterOfMass(dim, entity)[dim - 1]
+            (ball if height > thickness else slab).append(entity)
+        for _, entity in gmsh.model.getEntities(dim - 1):
+            height = occ.getCenterOfMass(dim - 1, entity)[dim - 1]
+            low, high = occ.getBoundingBox(dim - 1, entity)[dim - 1 :: 3][:2]
+            if height > thickness + gap / 2 and height < centre - 1e-6 * radius:
+                bottom.append(entity)
+            elif abs(low - thickness) < tolerance and abs(high - thickness) < tolerance:
+                top.append(entity)
+            elif abs(high) < tolerance:  # occ's boxes are a little larger than the entity
+                base.append(entity)
+        for group_dim, entities, tag in (
+            (dim, ball, BALL), (dim, slab, SLAB), (dim - 1, bottom, BALL_BOTTOM),
+            (dim - 1, top, SLAB_TOP), (dim - 1, base, SLAB_BOTTOM),
+        ):  # fmt: skip
+            gmsh.model.addPhysicalGroup(group_dim, entities, tag)
+        _set_sizes(gmsh, mesh_size)
+        _mesh(gmsh, dim, 2)
+
+    with gmsh_session():
+        return _distribute(build, dim, comm)
+
+
+def ball_on_slab_problem(
+    dim: int = 3,
+    mesh_size: float = 8.0,
+    v0: float = 1.0,
+    gravity: float = 0.1,
+    gamma0: float = 1e-3,
+    comm=MPI.COMM_WORLD,
+):
+    """The ball of the impact test thrown down at v0 (and gravity) on a slab of the same
+    material (lambda = mu = 20, rho = 1) resting on the rigid ground: body-body contact
+    between the ball's lower half and the slab's top (:meth:`~nitsche_dolfinx.model.ContactProblem.
+    add_contact_pair`, paired along the vertical), body-obstacle contact of the slab's
+    bottom with the ground. Returns ``(problem, cell_tags)``."""
+    mesh, cells, facets = ball_on_slab_mesh(dim, mesh_size, comm=comm)
+    problem = ContactProblem(mesh, facets, Material.from_lame(20.0, 20.0, rho=1.0), 2, gamma0)
+    down = np.zeros(dim)
+    down[-1] = -1.0
+    problem.add_contact_pair(BALL_BOTTOM, SLAB_TOP, "unbiased", down)
+    problem.add_obstacle(PlaneObstacle([0.0] * dim, -down), SLAB_BOTTOM)
+    problem.add_body_force(gravity * down)
+    velocities = {BALL: v0 * down, SLAB: np.zeros(dim)}
+    problem.set_initial_conditions(velocity=body_velocities(problem, cells, velocities))
+    return problem, cells

@@ -97,3 +97,18 @@ def test_two_disks_demo_contract(tmp_path):
     assert float(line.split("differs by ")[1].split()[0]) < 1e-10
     times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
     assert times[-1] == pytest.approx(2.0)
+
+
+def test_ball_on_slab_demo_runs_both_contacts(tmp_path):
+    """A disk (--dim 2) thrown on a plate resting on the ground: the pair and the obstacle
+    in one run, E_Theta never rising."""
+    out = tmp_path / "slab"
+    result = run_demo(
+        "ball_on_slab_3d.py", "--dim", "2", "--t-end", "3", "--no-plot", "--quiet",
+        "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    history = read_history(str(out / "history.csv"))
+    assert list(history)[-2:] == ["momentum_x", "momentum_y"]
+    assert np.diff(history["energy_theta"]).max() < 1e-12 * history["energy_theta"].max()
+    assert history["contact_force"][-1] > 0
