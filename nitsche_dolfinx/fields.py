@@ -2,6 +2,7 @@
 
 - :class:`NodalMean`: an expression that jumps between cells (a stress), at each node the
   mean of the values of the cells around it;
+- :class:`OnBoundary`: a Function at the nodes of a boundary part, zero elsewhere;
 - :class:`SurfaceValues`: expressions at the nodes of boundary parts, zero elsewhere (the gap);
 - :class:`ContactFields`: ``contact_pressure``, ``gap`` and ``contact_status`` on Gamma_C;
 - :class:`OutputMesh`: the mesh on which fields of a higher degree than the geometry are
@@ -22,7 +23,14 @@ from . import compat
 from .contact import heaviside, positive_part
 from .diagnostics import BoundaryField
 
-__all__ = ["ContactFields", "NodalMean", "OutputMesh", "SurfaceValues"]
+__all__ = [
+    "ContactFields",
+    "NodalMean",
+    "OnBoundary",
+    "OutputMesh",
+    "SurfaceValues",
+    "boundary_nodes",
+]
 
 
 class NodalMean:
@@ -73,6 +81,47 @@ class NodalMean:
         target.x.scatter_forward()
 
 
+def boundary_nodes(V, facets: np.ndarray) -> np.ndarray:
+    """Which local nodes (blocks) of the Lagrange space ``V`` lie on ``facets``, the same on
+    every rank that holds a node (collective: a rank may hold a node of a facet it does not
+    have)."""
+    marker = fem.Function(V)
+    bs = V.dofmap.index_map_bs
+    dofs = fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facets)
+    marker.x.array.reshape(-1, bs)[dofs] = 1.0
+    vector = compat.petsc_vector(marker)
+    vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    marker.x.scatter_forward()
+    return marker.x.array.reshape(-1, bs)[:, 0] > 0
+
+
+class OnBoundary:
+    """A Function written at the nodes of a part of the boundary, zero at every other node.
+
+    A P1 field on the boundary (zero at the other vertices) interpolated into a space of
+    higher degree would take half its boundary value at the middle of each edge from the
+    boundary into the body: written at the nodes on the boundary only, the field in the
+    file is the field on the boundary, as ParaView draws it on the surface.
+
+    Args:
+        function: The Function (a :class:`~nitsche_dolfinx.diagnostics.BoundaryField`'s).
+        facets: The facets of the part, local indices.
+    """
+
+    def __init__(self, function, facets: np.ndarray):
+        self.function, self.facets = function, facets
+        self._target = None  # the Function of the last call, and its nodes on the part
+
+    def evaluate(self, target) -> None:
+        """Set ``target`` (a Lagrange Function) to the Function at the nodes of the part."""
+        if self._target is not target:
+            self._target = target
+            self._outside = ~boundary_nodes(target.function_space, self.facets)
+        target.interpolate(self.function)
+        bs = target.function_space.dofmap.index_map_bs
+        target.x.array.reshape(-1, bs)[self._outside] = 0.0
+
+
 class SurfaceValues:
     """Scalar expressions, each at the nodes of its part of the boundary, the least of them
     where parts meet or overlap, and zero at every node on none of them.
@@ -91,31 +140,27 @@ class SurfaceValues:
     def __init__(self, mesh, parts):
         self.mesh = mesh
         self.parts = list(parts)
-        self._target = None  # the Function compiled for, and its expressions and dofs
+        self._target = None  # the Function of the last call, its expressions and nodes
 
     def _compile(self, target) -> None:
-        V, fdim = target.function_space, self.mesh.topology.dim - 1
-        compiled = [
-            (compat.expression(-expression, V), fem.locate_dofs_topological(V, fdim, facets))
+        V = target.function_space
+        self._compiled = [
+            (compat.expression(-expression, V), boundary_nodes(V, facets))
             for expression, facets in self.parts
         ]
-        self._target, self._compiled, self._scratch = target, compiled, fem.Function(V)
+        self._target, self._scratch = target, fem.Function(V)
 
     def evaluate(self, target) -> None:
         """Set ``target`` (a scalar Lagrange Function) to the values, zero off the parts."""
         if self._target is not target:
             self._compile(target)
-        # the largest of the negated values: PETSc combines ranks by a maximum, not a minimum
+        # the largest of the negated values (-inf off the parts), every rank holding a node
+        # with the same parts: a rank's nodes are all evaluated, ghosts included
         values = np.full(target.x.array.shape, -np.inf)
-        for expression, dofs in self._compiled:
+        for expression, nodes in self._compiled:
             self._scratch.interpolate(expression)
-            values[dofs] = np.maximum(values[dofs], self._scratch.x.array[dofs])
-        target.x.array[:] = values
-        vector = compat.petsc_vector(target)  # a node's parts may lie on several ranks
-        vector.ghostUpdate(addv=PETSc.InsertMode.MAX, mode=PETSc.ScatterMode.REVERSE)
-        target.x.scatter_forward()
-        negated = target.x.array
-        target.x.array[:] = np.where(np.isfinite(negated), -negated, 0.0)
+            values[nodes] = np.maximum(values[nodes], self._scratch.x.array[nodes])
+        target.x.array[:] = np.where(np.isfinite(values), -values, 0.0)
 
 
 class ContactFields:
@@ -175,18 +220,20 @@ class ContactFields:
         self.gap = SurfaceValues(
             mesh,
             [
-                (contact.penetration(u), problem.facets(tag))
+                (-contact.penetration(u), problem.facets(tag))  # g - u_n
                 for contact, tag in zip(contacts, problem.contact_tags)
             ],
         )
+        #: The facets of Gamma_C, every contact's.
+        self.facets = np.unique(np.concatenate([problem.facets(tag) for tag in tags]))
         self._pressure = pressure
 
     def fields(self) -> dict:
         """``{name: (source, shape)}`` for :class:`~nitsche_dolfinx.output.SolutionWriter`."""
         return {
-            "contact_pressure": (self._pressure, ()),
+            "contact_pressure": (OnBoundary(self._pressure, self.facets), ()),
             "gap": (self.gap, ()),
-            "contact_status": (self.status.function, ()),
+            "contact_status": (OnBoundary(self.status.function, self.facets), ()),
         }
 
     def update(self) -> None:

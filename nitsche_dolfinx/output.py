@@ -301,10 +301,24 @@ def output_degree(mesh, fields: dict) -> int:
 def _evaluator(source, V, degree: int, shape: tuple[int, ...]):
     """How a field's source is written into a Function of the output space ``V``."""
     if isinstance(source, fem.Function):
+        if _same_numbering(source.function_space, V):  # a copy, not an interpolation
+            return lambda target: target.x.array.__setitem__(slice(None), source.x.array)
         return lambda target: target.interpolate(source)
     if isinstance(source, ufl.core.expr.Expr):
         return NodalMean(source, V, degree, shape).evaluate
     return source.evaluate
+
+
+def _same_numbering(S, V) -> bool:
+    """Whether the Lagrange spaces ``S`` and ``V`` of one mesh have the same dofs in the
+    same order (a Function of one is then a Function of the other, value for value)."""
+    return (
+        S.mesh is V.mesh
+        and compat.element_degree(S) == compat.element_degree(V)
+        and S.dofmap.index_map_bs == V.dofmap.index_map_bs
+        and S.dofmap.index_map.size_local == V.dofmap.index_map.size_local
+        and np.array_equal(compat.dofmap_array(S), compat.dofmap_array(V))
+    )
 
 
 def _on_rank_0(comm, action, path: str) -> None:

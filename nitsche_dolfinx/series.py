@@ -41,7 +41,9 @@ ElementTree.register_namespace("xi", _XINCLUDE)
 def merge_levels(path: str) -> None:
     """Rewrite the XDMF file ``path`` with the levels of every temporal collection in the
     one collection :data:`SERIES_NAME`: the fields of a time level (same time, same mesh)
-    become attributes of one grid. The levels already there keep their place."""
+    become attributes of one grid. The levels already there keep their place. The real
+    data items get ``DataType="Float" Precision="8"``: dolfinx writes doubles without saying
+    so, and ParaView reads them in single precision otherwise."""
     tree = ElementTree.parse(path)
     domain = tree.getroot().find("Domain")
     collections = [g for g in domain.findall("Grid") if g.get("GridType") == "Collection"]
@@ -62,6 +64,10 @@ def merge_levels(path: str) -> None:
                 levels[key] = level
             levels[key].extend(grid.findall("Attribute"))
         domain.remove(collection)
+    for item in domain.iter("DataItem"):  # dolfinx's real data are doubles, untyped
+        if "NumberType" not in item.attrib and "DataType" not in item.attrib:
+            item.set("DataType", "Float")
+            item.set("Precision", "8")
     ElementTree.indent(tree, space="  ")
     text = ElementTree.tostring(tree.getroot(), encoding="unicode")
     if "xmlns:xi=" not in text.split(">", 1)[0]:  # dolfinx writes xi:include with this prefix

@@ -22,7 +22,7 @@ from mpi4py import MPI
 
 from . import compat
 from .diagnostics import Diagnostics
-from .fields import ContactFields
+from .fields import ContactFields, OnBoundary
 from .friction import ContactTerms, FrictionOutput, GuardedNewton
 from .material import von_mises
 from .model import ContactProblem, as_array
@@ -111,7 +111,9 @@ class Stepper(Protocol):
         """The diagnostics of the current time level, identical on every rank."""
 
     def output_fields(self) -> dict:
-        """``{name: (Function or UFL expression, value shape)}`` for the field output."""
+        """``{name: (source, value shape)}`` for the field output: a source is a Function, a
+        UFL expression or an object with ``evaluate(target)`` (see
+        :class:`~nitsche_dolfinx.output.SolutionWriter`)."""
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         """Everything the next step depends on, by name."""
@@ -486,9 +488,10 @@ class NitscheStepper(TimeLevels):
             if self._contact_fields is None:  # compiled when first asked for
                 self._contact_fields = ContactFields(self.problem, self.u)
             fields.update(self._contact_fields.fields())
-        if self._friction is not None:
-            for field in self._friction.fields:
-                fields[field.function.name] = (field.function, shape)
+            if self._friction is not None:
+                for field in self._friction.fields:
+                    source = OnBoundary(field.function, self._contact_fields.facets)
+                    fields[field.function.name] = (source, shape)
         return fields
 
     def before_output(self) -> None:
