@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import csv
 import os
-import shutil
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Sequence
 
@@ -22,13 +21,7 @@ from dolfinx.io import XDMFFile
 
 from . import compat
 from .fields import NodalMean, OutputMesh
-from .series import (
-    PART_SUFFIX,
-    _continuation,
-    _remove_segments,
-    continue_solution,
-    merge_levels,
-)
+from .series import PART_SUFFIX, SeriesXML, _continuation, _remove_segments, continue_solution
 
 __all__ = [
     "HistoryWriter",
@@ -232,6 +225,12 @@ class SolutionWriter:
         self.data_path = stem + ".h5"
         self._part = stem + PART_SUFFIX
         self._mesh_written = False
+        self._xml = None  # rank 0: the XML of the series (see nitsche_dolfinx.series)
+
+        def load():
+            self._xml = SeriesXML(self.path if self.append else None)
+
+        _on_rank_0(self.comm, load, self.path)
         if not self.append:  # a new series: the mesh at once, as a file with no level yet
             self._write_level(None)
 
@@ -251,8 +250,9 @@ class SolutionWriter:
         def prepare():
             if new_file:
                 _remove_segments(os.path.splitext(self.path)[0])
-            else:  # dolfinx rewrites the XML in place: work on a copy
-                shutil.copyfile(self.path, self._part)
+            else:  # dolfinx appends to a copy holding the meshes, not the levels
+                with open(self._part, "w") as f:
+                    f.write(self._xml.working_copy())
 
         _on_rank_0(self.comm, prepare, self._part)
         xdmf = XDMFFile(self.comm, self._part, "w" if new_file else "a")
@@ -280,7 +280,9 @@ class SolutionWriter:
         _on_rank_0(self.comm, self._publish, self.path)
 
     def _publish(self) -> None:
-        merge_levels(self._part)
+        self._xml.add(self._part)
+        with open(self._part, "w") as f:
+            f.write(self._xml.text())
         os.replace(self._part, self.path)
 
     def close(self) -> None:

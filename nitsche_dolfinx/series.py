@@ -3,10 +3,10 @@ and reading it back (docs/method.md section 6).
 
 dolfinx's ``XDMFFile`` writes each field as a temporal collection of its own, which
 ParaView shows as separate pieces (a displacement to warp by in one, the stress in
-another) and meshio reads one of. After each level written, :func:`merge_levels` puts
-the levels into one collection, :data:`SERIES_NAME`, one grid per time level holding
-every field: ParaView then shows one dataset with all the fields, and meshio's
-``TimeSeriesReader`` reads them all. The HDF5 data are dolfinx's, untouched.
+another) and meshio reads one of. After each level written, :class:`SeriesXML` puts it
+into one collection, :data:`SERIES_NAME`, one grid per time level holding every field:
+ParaView then shows one dataset with all the fields, and meshio's ``TimeSeriesReader``
+reads them all. The HDF5 data are dolfinx's, untouched.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ __all__ = [
     "PART_SUFFIX",
     "SERIES_NAME",
     "Level",
+    "SeriesXML",
     "continue_solution",
-    "merge_levels",
     "read_solution",
 ]
 
@@ -38,42 +38,64 @@ _INCLUDE = f"{{{_XINCLUDE}}}include"
 ElementTree.register_namespace("xi", _XINCLUDE)
 
 
-def merge_levels(path: str) -> None:
-    """Rewrite the XDMF file ``path`` with the levels of every temporal collection in the
-    one collection :data:`SERIES_NAME`: the fields of a time level (same time, same mesh)
-    become attributes of one grid. The levels already there keep their place. The real
-    data items get ``DataType="Float" Precision="8"``: dolfinx writes doubles without saying
-    so, and ParaView reads them in single precision otherwise."""
-    tree = ElementTree.parse(path)
-    domain = tree.getroot().find("Domain")
-    collections = [g for g in domain.findall("Grid") if g.get("GridType") == "Collection"]
-    series = next((g for g in collections if g.get("Name") == SERIES_NAME), None)
-    if series is None and collections:
-        series = ElementTree.SubElement(
-            domain, "Grid", Name=SERIES_NAME, GridType="Collection", CollectionType="Temporal"
-        )
-    levels = {_level_key(level): level for level in series.findall("Grid")} if collections else {}
-    for collection in collections:
-        if collection is series:
-            continue
-        for grid in collection.findall("Grid"):
-            key = _level_key(grid)
-            if key not in levels:
-                level = ElementTree.SubElement(series, "Grid", Name=SERIES_NAME, GridType="Uniform")
-                level.extend([grid.find(_INCLUDE), grid.find("Time")])
-                levels[key] = level
-            levels[key].extend(grid.findall("Attribute"))
-        domain.remove(collection)
-    for item in domain.iter("DataItem"):  # dolfinx's real data are doubles, untyped
-        if "NumberType" not in item.attrib and "DataType" not in item.attrib:
-            item.set("DataType", "Float")
-            item.set("Precision", "8")
-    ElementTree.indent(tree, space="  ")
-    text = ElementTree.tostring(tree.getroot(), encoding="unicode")
-    if "xmlns:xi=" not in text.split(">", 1)[0]:  # dolfinx writes xi:include with this prefix
-        text = text.replace("<Xdmf ", f'<Xdmf xmlns:xi="{_XINCLUDE}" ', 1)
-    with open(path, "w") as f:
-        f.write(f'<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n{text}\n')
+class SeriesXML:
+    """The XML of a series, kept on rank 0 as text between its levels: the mesh grids, and
+    the levels of the collection :data:`SERIES_NAME`, each a grid with every field.
+
+    dolfinx appends a level to a working copy that holds the mesh grids only
+    (:meth:`working_copy`), as a temporal collection per field; :meth:`add` takes its
+    fields into one new level and :meth:`text` is the whole file. Each level thus costs
+    the parsing of one small file, whatever the number of levels before it. The real data
+    items get ``DataType="Float" Precision="8"``: dolfinx writes doubles without saying so,
+    and ParaView reads them in single precision otherwise.
+
+    Args:
+        path: An existing series to continue (any layout: the levels of dolfinx's
+            collections per field are merged), or None for a new one.
+    """
+
+    def __init__(self, path: str | None = None):
+        self.meshes: dict[str, str] = {}  # name: the mesh grid, as text
+        self.levels: list[str] = []  # the level grids, as text
+        if path is not None:
+            self.add(path)
+
+    def add(self, path: str) -> None:
+        """Take the new mesh grids and the levels of the XDMF file ``path``."""
+        domain = ElementTree.parse(path).getroot().find("Domain")
+        for item in domain.iter("DataItem"):  # dolfinx's real data are doubles, untyped
+            if "NumberType" not in item.attrib and "DataType" not in item.attrib:
+                item.set("DataType", "Float")
+                item.set("Precision", "8")
+        levels = {}  # (time, mesh): the new level grids, in the order of their first field
+        for grid in domain.findall("Grid"):
+            if grid.get("GridType") == "Uniform":
+                self.meshes.setdefault(grid.get("Name"), _text(grid, 2))
+            elif grid.get("Name") == SERIES_NAME:
+                self.levels.extend(_text(level, 3) for level in grid.findall("Grid"))
+            else:
+                for field in grid.findall("Grid"):
+                    key = _level_key(field)
+                    if key not in levels:
+                        levels[key] = ElementTree.Element(
+                            "Grid", Name=SERIES_NAME, GridType="Uniform"
+                        )
+                        levels[key].extend([field.find(_INCLUDE), field.find("Time")])
+                    levels[key].extend(field.findall("Attribute"))
+        self.levels.extend(_text(level, 3) for level in levels.values())
+
+    def working_copy(self) -> str:
+        """The file with the mesh grids only, for dolfinx to append a level to."""
+        return _document(list(self.meshes.values()))
+
+    def text(self) -> str:
+        """The whole file."""
+        grids = list(self.meshes.values())
+        if self.levels:
+            opening = f'    <Grid Name="{SERIES_NAME}" GridType="Collection" '
+            opening += 'CollectionType="Temporal">'
+            grids.append("\n".join([opening, *self.levels, "    </Grid>"]))
+        return _document(grids)
 
 
 def _level_key(grid) -> tuple[str, str]:
@@ -81,19 +103,38 @@ def _level_key(grid) -> tuple[str, str]:
     return grid.find("Time").get("Value"), grid.find(_INCLUDE).get("xpointer")
 
 
+def _text(element, depth: int) -> str:
+    """An element as text indented for its ``depth`` in the document, without the namespace
+    declaration that the document's root makes."""
+    ElementTree.indent(element, space="  ", level=depth)
+    element.tail = None
+    text = ElementTree.tostring(element, encoding="unicode")
+    return "  " * depth + text.replace(f' xmlns:xi="{_XINCLUDE}"', "", 1)
+
+
+def _document(grids: list[str]) -> str:
+    """An XDMF document of the grids (as text)."""
+    head = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+    head += f'<Xdmf Version="3.0" xmlns:xi="{_XINCLUDE}">\n  <Domain>\n'
+    return head + "\n".join(grids) + "\n  </Domain>\n</Xdmf>\n"
+
+
 class Level(NamedTuple):
-    """One time level of a series: ``t``, the node coordinates ``points`` (N, 3 or gdim),
-    the ``cells`` (rows of node indices, in the XDMF order of their cell type) and
-    ``fields``, name to values (N, components)."""
+    """One time level of a series: ``t``, the node coordinates ``points`` (N, gdim or 3),
+    the ``cells`` (rows of node indices in the XDMF order of ``cell_type``, e.g.
+    ``"Tetrahedron_10"``, the same as VTK's) and ``fields``, name to values
+    (N, components)."""
 
     t: float
     points: np.ndarray
     cells: np.ndarray
+    cell_type: str
     fields: dict
 
 
-def read_solution(path: str) -> list[Level]:
-    """Every time level of an XDMF series written by this package, in order, with h5py.
+def read_solution(path: str, t: float | None = None) -> list[Level]:
+    """Every time level of an XDMF series written by this package, in order, read with
+    h5py; with ``t``, only the level nearest to ``t``.
 
     Each level is read with the mesh its grid includes: after a restart the nodes are
     numbered anew (see :class:`~nitsche_dolfinx.output.SolutionWriter`), so that the
@@ -104,6 +145,12 @@ def read_solution(path: str) -> list[Level]:
     folder = os.path.dirname(path)
     domain = ElementTree.parse(path).getroot().find("Domain")
     meshes = [grid for grid in domain.findall("Grid") if grid.get("GridType") == "Uniform"]
+    collections = [g for g in domain.findall("Grid") if g.get("GridType") == "Collection"]
+    grids = [grid for collection in collections for grid in collection.findall("Grid")]
+    times = [float(grid.find("Time").get("Value")) for grid in grids]
+    if t is not None and grids:
+        nearest = int(np.argmin(np.abs(np.asarray(times) - t)))
+        grids, times = [grids[nearest]], [times[nearest]]
 
     def data(item):
         name, inside = item.text.strip().split(":", 1)
@@ -111,18 +158,16 @@ def read_solution(path: str) -> list[Level]:
             return h5[inside][()]
 
     levels = []
-    collections = [g for g in domain.findall("Grid") if g.get("GridType") == "Collection"]
-    for collection in collections:
-        for grid in collection.findall("Grid"):
-            pointer = grid.find(_INCLUDE).get("xpointer")
-            named = re.search(r"Grid\[@Name='([^']+)'\]", pointer)
-            mesh = meshes[0]  # dolfinx's default: the first mesh of the file
-            if named:
-                (mesh,) = [m for m in meshes if m.get("Name") == named.group(1)]
-            fields = {a.get("Name"): data(a.find("DataItem")) for a in grid.findall("Attribute")}
-            t = float(grid.find("Time").get("Value"))
-            points = data(mesh.find("Geometry/DataItem"))
-            levels.append(Level(t, points, data(mesh.find("Topology/DataItem")), fields))
+    for grid, time in zip(grids, times):
+        named = re.search(r"Grid\[@Name='([^']+)'\]", grid.find(_INCLUDE).get("xpointer"))
+        mesh = meshes[0]  # dolfinx's default: the first mesh of the file
+        if named:
+            (mesh,) = [m for m in meshes if m.get("Name") == named.group(1)]
+        topology = mesh.find("Topology")
+        fields = {a.get("Name"): data(a.find("DataItem")) for a in grid.findall("Attribute")}
+        points = data(mesh.find("Geometry/DataItem"))
+        cells = data(topology.find("DataItem"))
+        levels.append(Level(time, points, cells, topology.get("TopologyType"), fields))
     return levels
 
 
