@@ -319,7 +319,8 @@ def mesh_keeping_cells(comm, cells: np.ndarray, x: np.ndarray, cell: str, degree
     ghost cells of that partition, and drops these cells afterwards for ``GhostMode.none``:
     there each cell also goes, as a ghost, to the other ranks that hold one of its nodes,
     given by ``sharing()`` (collective) as ``(offsets, ranks)``, the cell's own rank first.
-    From 0.6 the shared nodes are found by their global indices and the rank alone is given.
+    dolfinx 0.9 and 0.11 find the shared nodes by their global indices: the rank alone is
+    given.
     """
     import dolfinx.cpp
     import dolfinx.mesh

@@ -129,6 +129,11 @@ def test_contact_fields_at_every_output_time(mpi_tmp_path, case):
     simulation, every, (centre, radius) = CASES[case]()
     history = simulation.run(out=mpi_tmp_path, output_every=every)
     levels = read_solution(os.path.join(mpi_tmp_path, "solution.xdmf"))
+    check_fields(simulation, history, levels, every, centre, radius)
+
+
+def check_fields(simulation, history, levels, every, centre, radius) -> None:
+    """The contact fields of a run against its history (see the test above)."""
     assert [level.t for level in levels] == pytest.approx(history["t"][::every], abs=1e-9)
     assert history["contact_force"][-1] > 0
     for level, penetration in zip(levels, history["penetration_max"][::every]):
@@ -174,6 +179,20 @@ def test_meshio_reads_every_field_at_every_time(tmp_path):
             for name, values in level.fields.items():
                 assert np.array_equal(point_data[name], values)
         assert np.array_equal(points, levels[0].points)
+
+
+def test_two_obstacles_on_one_part_of_gamma_c(tmp_path):
+    """The disk with a second plane obstacle on the same Gamma_C, 5 below the ground: the
+    fields of the two contacts together (pressures summed, the least gap, in contact with
+    either) keep the identities of one obstacle: the integrals of the pressure and of the
+    status are -contact_force and contact_area (each facet counted once in the lumped
+    mass), and the least gap is -penetration_max."""
+    simulation, every, (centre, radius) = impact_simulation(2)
+    simulation.problem.add_obstacle(PlaneObstacle([0.0, -5.0], [0.0, 1.0]), 1)
+    simulation = Simulation(simulation.problem, HybridScheme(), dt=0.1, t_end=0.6)
+    history = simulation.run(out=str(tmp_path), output_every=every)
+    levels = read_solution(str(tmp_path / "solution.xdmf"))
+    check_fields(simulation, history, levels, every, centre, radius)
 
 
 # -- the bar: the contact pressure at x = 0, Nitsche and mixed ------------------------------
