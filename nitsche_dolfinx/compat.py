@@ -34,6 +34,7 @@ __all__ = [
     "geometry_dofmap",
     "gmsh_model_to_mesh",
     "interpolation_points",
+    "mesh_keeping_cells",
     "mixed_function_space",
     "own_symbols",
     "petsc_vector",
@@ -305,6 +306,50 @@ def write_meshtags(xdmf, tags, mesh) -> None:
         xdmf.write_meshtags(tags, mesh.geometry)
     except TypeError:  # 0.5: the geometry is taken from the tags' mesh
         xdmf.write_meshtags(tags)
+
+
+def mesh_keeping_cells(comm, cells: np.ndarray, x: np.ndarray, cell: str, degree: int, sharing):
+    """A mesh with a Lagrange geometry of ``degree``, each of its cells kept on the rank that
+    gives it: ``cells`` are this rank's cells as rows of global node indices (in the node
+    order of the Lagrange element), ``x`` its consecutive share of the nodes (num_nodes,
+    gdim), by global index.
+
+    The partition is a function that sends every cell to its own rank. dolfinx 0.5 (whose
+    ``create_mesh`` takes a ghost mode) finds the nodes shared between ranks through the
+    ghost cells of that partition, and drops these cells afterwards for ``GhostMode.none``:
+    there each cell also goes, as a ghost, to the other ranks that hold one of its nodes,
+    given by ``sharing()`` (collective) as ``(offsets, ranks)``, the cell's own rank first.
+    dolfinx 0.9 and 0.11 find the shared nodes by their global indices: the rank alone is
+    given.
+    """
+    import dolfinx.cpp
+    import dolfinx.mesh
+
+    gdim = x.shape[1]
+    ghost_mode = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
+    if ghost_mode:  # 0.5
+        offsets, ranks = sharing()
+        element = ufl.VectorElement("Lagrange", ufl.Cell(cell, geometric_dimension=gdim), degree)
+    else:
+        import basix.ufl
+
+        offsets = np.arange(len(cells) + 1)
+        ranks = np.full(len(cells), comm.rank)
+        element = basix.ufl.element("Lagrange", cell, degree, shape=(gdim,))
+    destinations = dolfinx.cpp.graph.AdjacencyList_int32(
+        np.asarray(ranks, dtype=np.int32), np.asarray(offsets, dtype=np.int32)
+    )
+
+    def partition(*args):
+        return destinations
+
+    cells = np.asarray(cells, dtype=np.int64).reshape(len(cells), -1)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if ghost_mode:
+        return dolfinx.mesh.create_mesh(
+            comm, cells, x, ufl.Mesh(element), dolfinx.mesh.GhostMode.none, partition
+        )
+    return dolfinx.mesh.create_mesh(comm, cells, x=x, e=ufl.Mesh(element), partitioner=partition)
 
 
 # -- plotting --------------------------------------------------------------------------

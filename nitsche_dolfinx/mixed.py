@@ -31,6 +31,7 @@ from . import compat
 from .checkpoint import node_coordinates
 from .contact import positive_part
 from .diagnostics import Penetration, assemble_global
+from .fields import ContactFields
 from .material import von_mises
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
@@ -124,6 +125,7 @@ class MixedStepper(TimeLevels):
         self._area = fem.form(ufl.conditional(ufl.lt(lam, 0.0), 1.0, 0.0) * contact.ds)
         self._penetration = Penetration(problem, self.u)
         self._massless = problem.massless_dofs()
+        self._contact_fields = None  # ContactFields, once the output asks for them
         self.newton_iterations, self.step_seconds = 0, 0.0
         self._initialize()
 
@@ -277,21 +279,29 @@ class MixedStepper(TimeLevels):
         return self._lambda
 
     def output_fields(self) -> dict:
-        """Displacement, velocity, von Mises stress and the multiplier lambda (zero off
-        Gamma_C)."""
+        """Displacement, velocity, von Mises stress and the contact fields of
+        :class:`~nitsche_dolfinx.fields.ContactFields`, with the multiplier lambda (zero
+        off Gamma_C) as ``contact_pressure`` and lambda < 0 as the contact set."""
         shape = (self.problem.gdim,)
+        if self._contact_fields is None:  # compiled when first asked for
+            in_contact = ufl.conditional(ufl.lt(self._lambda, 0.0), 1.0, 0.0)
+            self._contact_fields = ContactFields(
+                self.problem, self.u, pressure=self.multiplier, in_contact=in_contact
+            )
         return {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
             "von_mises": (von_mises(self.u, self.problem.material), ()),
-            "multiplier": (self.multiplier, ()),
+            **self._contact_fields.fields(),
         }
 
     def before_output(self) -> None:
         self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
+        if self._contact_fields is not None:
+            self._contact_fields.update()  # lambda and the state are those of the level
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
-        self.before_output()
+        self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
         return {
             "displacement": self.u,
             "velocity": self.v,

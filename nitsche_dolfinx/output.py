@@ -11,17 +11,17 @@ from __future__ import annotations
 
 import csv
 import os
-import re
-import shutil
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Sequence
 
 import numpy as np
+import ufl
 from dolfinx import fem
 from dolfinx.io import XDMFFile
-from petsc4py import PETSc
 
 from . import compat
+from .fields import NodalMean, OutputMesh
+from .series import PART_SUFFIX, SeriesXML, _continuation, _remove_segments, continue_solution
 
 __all__ = [
     "HistoryWriter",
@@ -153,68 +153,22 @@ def read_history(path: str) -> dict[str, np.ndarray]:
     return {name: data[:, i] for i, name in enumerate(header)}
 
 
-#: The working copy of an XDMF file while a time level is written (see :class:`SolutionWriter`).
-PART_SUFFIX = ".xdmf-part"
-_SEGMENT = re.compile(r"-restart(\d+)(\.h5|" + re.escape(PART_SUFFIX) + r")$")
-
-
-class NodalMean:
-    """A UFL expression in ``V`` (Lagrange, of ``degree`` and value ``shape``), its value at
-    each node the mean of the values of the cells around the node.
-
-    A field that jumps between cells (a stress) has no value at a node shared by cells;
-    dolfinx's interpolation gives it the value of the last cell it visits, which depends
-    on the partition of the mesh. Here the expression is interpolated cell by cell into
-    the discontinuous space of the same degree, then averaged over the cells of each
-    node: the same on any partition and number of ranks, up to round-off.
-    """
-
-    def __init__(self, expression, V, degree: int, shape: tuple[int, ...] = ()):
-        mesh = V.mesh
-        W = compat.function_space(mesh, "DG", degree, shape)
-        self._pieces = fem.Function(W)
-        self._expression = compat.expression(expression, W)
-        cells = mesh.topology.index_map(mesh.topology.dim).size_local  # owned cells
-        self._nodes = compat.dofmap_array(V)[:cells].reshape(-1)
-        self._cell_nodes = compat.dofmap_array(W)[:cells].reshape(-1)
-        self._bs = V.dofmap.index_map_bs
-        index_map = V.dofmap.index_map
-        self._blocks = index_map.size_local + index_map.num_ghosts
-        self._owned = index_map.size_local * self._bs
-        counts = fem.Function(V)
-        ones = np.ones((self._nodes.size, self._bs))
-        self._counts = self._sum(counts, ones)
-
-    def _sum(self, target, values: np.ndarray) -> np.ndarray:
-        """Add ``values`` (one row per cell node) into the owned dofs of ``target``, on the
-        rank that owns each node; returns the owned entries."""
-        array = target.x.array.reshape(-1, self._bs)
-        for component in range(self._bs):
-            array[:, component] = np.bincount(
-                self._nodes, weights=values[:, component], minlength=self._blocks
-            )[: len(array)]
-        vector = compat.petsc_vector(target)
-        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        return target.x.array[: self._owned].copy()
-
-    def evaluate(self, target) -> None:
-        """Set ``target`` (a Function on ``V``) to the nodal means of the expression."""
-        self._pieces.interpolate(self._expression)
-        values = self._pieces.x.array.reshape(-1, self._bs)[self._cell_nodes]
-        sums = self._sum(target, values)
-        target.x.array[: self._owned] = sums / self._counts
-        target.x.scatter_forward()
-
-
 class SolutionWriter:
-    """XDMF time series of displacement, velocity and von Mises stress.
+    """XDMF time series of the fields of a run: displacement, velocity, von Mises stress, the
+    contact fields on Gamma_C, ... (docs/method.md section 6).
 
-    The fields are interpolated into Lagrange spaces of the mesh's geometric
-    degree, the only functions XDMF writes on every dolfinx version.
+    The fields are interpolated into Lagrange spaces of one degree, the higher of the mesh's
+    geometric degree and the degree of the Functions among them (:func:`output_degree`),
+    so that a P2 displacement is written node for node. XDMF writes a field of the
+    geometry's degree only: when the fields' degree is higher, they are written on an
+    :class:`OutputMesh` whose geometry has their degree (a P2 field on an affine mesh:
+    the mesh of its quadratic cells, with nodes at the mid-edges).
 
     A field given as an expression (the von Mises stress, which jumps between cells)
     takes at each node the mean of the values of the cells around it
-    (:class:`NodalMean`), so that it does not depend on the partition of the mesh.
+    (:class:`~nitsche_dolfinx.fields.NodalMean`), so that it does not depend on the
+    partition of the mesh; an object with a method ``evaluate(target)`` writes itself into
+    the Function ``target`` of the output space.
 
     Every time level is written whole and closed, so that the files stay readable
     when the run is killed (even by SIGKILL), with every level written before:
@@ -236,7 +190,8 @@ class SolutionWriter:
     Args:
         path: The ``.xdmf`` file (its ``.h5`` goes next to it).
         mesh: The mesh.
-        fields: ``{name: (expression_or_function, shape)}`` with shape ``()`` or ``(gdim,)``.
+        fields: ``{name: (source, shape)}`` with shape ``()`` or ``(gdim,)``; a source is
+            a Function, a UFL expression or an object with ``evaluate(target)``.
         append: Continue the series of an existing file written for the same mesh
             (see :func:`continue_solution`) instead of starting a new file.
     """
@@ -244,16 +199,21 @@ class SolutionWriter:
     def __init__(self, path: str, mesh, fields: dict, append: bool = False):
         self.path = str(path)
         self.mesh, self.comm = mesh, mesh.comm
-        degree = compat.geometry_degree(mesh)
-        self._outputs = []
+        #: The degree of the Lagrange spaces of the fields in the file.
+        self.degree = output_degree(mesh, fields)
+        #: The mesh in the file: ``mesh``, or an :class:`OutputMesh`'s of the fields' degree.
+        self.written_mesh = mesh
+        output_mesh = None
+        if self.degree > compat.geometry_degree(mesh):
+            output_mesh = OutputMesh(compat.function_space(mesh, "Lagrange", self.degree))
+            self.written_mesh = output_mesh.mesh
+        self._output_mesh = output_mesh
+        self._outputs = []  # (evaluate, the field on mesh, the Function written)
         for name, (source, shape) in fields.items():
-            V = compat.function_space(mesh, "Lagrange", degree, shape)
+            V = compat.function_space(mesh, "Lagrange", self.degree, shape)
             target = fem.Function(V, name=name)
-            if isinstance(source, fem.Function):
-                interpolant = source
-            else:
-                interpolant = NodalMean(source, V, degree, shape)
-            self._outputs.append((target, interpolant))
+            written = target if output_mesh is None else output_mesh.function(name, shape)
+            self._outputs.append((_evaluator(source, V, self.degree, shape), target, written))
         self.append = bool(append)
         stem, k = os.path.splitext(self.path)[0], 0
         if self.append:
@@ -265,16 +225,21 @@ class SolutionWriter:
         self.data_path = stem + ".h5"
         self._part = stem + PART_SUFFIX
         self._mesh_written = False
+        self._xml = None  # rank 0: the XML of the series (see nitsche_dolfinx.series)
+
+        def load():
+            self._xml = SeriesXML(self.path if self.append else None)
+
+        _on_rank_0(self.comm, load, self.path)
         if not self.append:  # a new series: the mesh at once, as a file with no level yet
             self._write_level(None)
 
     def write(self, t: float) -> None:
         """Write all fields at time ``t``; on return they are on disk and named in the XDMF file."""
-        for target, interpolant in self._outputs:
-            if isinstance(interpolant, NodalMean):
-                interpolant.evaluate(target)
-            else:
-                target.interpolate(interpolant)
+        for evaluate, target, written in self._outputs:
+            evaluate(target)
+            if written is not target:
+                self._output_mesh.transfer(target, written)
         self._write_level(float(t))
 
     def _write_level(self, t: float | None) -> None:
@@ -285,143 +250,93 @@ class SolutionWriter:
         def prepare():
             if new_file:
                 _remove_segments(os.path.splitext(self.path)[0])
-            else:  # dolfinx rewrites the XML in place: work on a copy
-                shutil.copyfile(self.path, self._part)
+            else:  # dolfinx appends to a copy holding the meshes, not the levels
+                with open(self._part, "w") as f:
+                    f.write(self._xml.working_copy())
 
         _on_rank_0(self.comm, prepare, self._part)
         xdmf = XDMFFile(self.comm, self._part, "w" if new_file else "a")
         try:
             if not self._mesh_written:
-                name = self.mesh.name
-                self.mesh.name = self.mesh_name
+                mesh = self.written_mesh
+                name = mesh.name
+                mesh.name = self.mesh_name
                 try:
-                    xdmf.write_mesh(self.mesh)
+                    xdmf.write_mesh(mesh)
                 finally:
-                    self.mesh.name = name
+                    mesh.name = name
             if t is not None:
-                for target, _ in self._outputs:
+                for _, _, written in self._outputs:
                     if self.append:
                         xpath = f"/Xdmf/Domain/Grid[@Name='{self.mesh_name}'][1]"
-                        xdmf.write_function(target, t, xpath)
+                        xdmf.write_function(written, t, xpath)
                     else:  # the first grid of the file: dolfinx's default
-                        xdmf.write_function(target, t)
+                        xdmf.write_function(written, t)
         finally:
             xdmf.close()
         self._mesh_written = True
-        # the HDF5 file is closed on every rank: name its data
-        _on_rank_0(self.comm, lambda: os.replace(self._part, self.path), self.path)
+        # the HDF5 file is closed on every rank: name its data, every field of a level in
+        # one grid (see nitsche_dolfinx.series)
+        _on_rank_0(self.comm, self._publish, self.path)
+
+    def _publish(self) -> None:
+        self._xml.add(self._part)
+        with open(self._part, "w") as f:
+            f.write(self._xml.text())
+        os.replace(self._part, self.path)
 
     def close(self) -> None:
         """Nothing left to do: every level is closed as written."""
 
 
+def output_degree(mesh, fields: dict) -> int:
+    """The degree of the fields in the file: the mesh's geometric degree, or the highest
+    degree of the Lagrange Functions among ``fields`` if higher."""
+    degrees = [
+        compat.element_degree(source.function_space)
+        for source, _ in fields.values()
+        if isinstance(source, fem.Function)
+    ]
+    return max([compat.geometry_degree(mesh), *degrees])
+
+
+def _evaluator(source, V, degree: int, shape: tuple[int, ...]):
+    """How a field's source is written into a Function of the output space ``V``."""
+    if isinstance(source, fem.Function):
+        if _same_numbering(source.function_space, V):  # a copy, not an interpolation
+            return lambda target: target.x.array.__setitem__(slice(None), source.x.array)
+        return lambda target: target.interpolate(source)
+    if isinstance(source, ufl.core.expr.Expr):
+        return NodalMean(source, V, degree, shape).evaluate
+    return source.evaluate
+
+
+def _same_numbering(S, V) -> bool:
+    """Whether the Lagrange spaces ``S`` and ``V`` of one mesh have the same dofs in the
+    same order (a Function of one is then a Function of the other, value for value)."""
+    return (
+        S.mesh is V.mesh
+        and compat.element_degree(S) == compat.element_degree(V)
+        and S.dofmap.index_map_bs == V.dofmap.index_map_bs
+        and S.dofmap.index_map.size_local == V.dofmap.index_map.size_local
+        and np.array_equal(compat.dofmap_array(S), compat.dofmap_array(V))
+    )
+
+
 def _on_rank_0(comm, action, path: str) -> None:
-    """Run the file operation ``action()`` on rank 0 (collective); an OSError becomes the
-    same ValueError, naming ``path``, on every rank."""
+    """Run the file operation ``action()`` on rank 0 (collective); an OSError (or an XML
+    file that cannot be parsed) becomes the same ValueError, naming ``path``, on every rank."""
     error = None
     if comm.rank == 0:
         try:
             action()
         except OSError as exc:
             error = _os_error(path, exc)
+        except ElementTree.ParseError as exc:
+            error = f"{path!r} cannot be written: {exc}"
     error = comm.bcast(error, root=0)
     if error is not None:
         raise ValueError(error)
-
-
-def _series_files(path: str) -> tuple[set[int], bool]:
-    """The numbers k of the files ``<stem>-restart<k>.*`` of the series ``path``, and whether
-    a working copy of its XML is left (a write that a kill cut short)."""
-    stem = os.path.splitext(path)[0]
-    folder, base = os.path.dirname(stem) or ".", os.path.basename(stem)
-    numbers, interrupted = set(), False
-    for entry in os.listdir(folder):
-        if not entry.startswith(base):
-            continue
-        rest = entry[len(base) :]
-        found = _SEGMENT.fullmatch(rest)
-        if found:
-            numbers.add(int(found.group(1)))
-        interrupted |= rest.endswith(PART_SUFFIX) and (rest == PART_SUFFIX or bool(found))
-    return numbers, interrupted
-
-
-def _continuation(path: str) -> tuple[str, int]:
-    """Where a restart continues the series ``path``: ``(stem of its data file, k)``.
-
-    The mesh goes again into the grid ``mesh-restart<k>``, k the least number that no grid
-    and no file of the series uses. The data go on in the HDF5 file of the last level,
-    unless a kill cut a write short (its working copy of the XML is left): that file may
-    then hold data of a level it never finished, which dolfinx before 0.10 cannot write
-    again, and the data go to a new file ``<stem>-restart<k>.h5``.
-    """
-    stem = os.path.splitext(path)[0]
-    numbers, interrupted = _series_files(path)
-    root = ElementTree.parse(path).getroot()
-    for grid in root.iter("Grid"):
-        found = re.fullmatch(r"mesh-restart(\d+)", grid.get("Name", ""))
-        if found:
-            numbers.add(int(found.group(1)))
-    k = 1
-    while k in numbers:
-        k += 1
-    data = [item.text.strip().split(":", 1)[0] for item in root.iter("DataItem")]
-    if interrupted or not data:
-        return f"{stem}-restart{k}", k
-    return os.path.join(os.path.dirname(path), os.path.splitext(data[-1])[0]), k
-
-
-def _remove_segments(stem: str) -> None:
-    """Remove the data of the restarts of an earlier series ``<stem>.xdmf`` and the working
-    copies of its XML, before a new series of that name starts."""
-    folder = os.path.dirname(stem) or "."
-    base = os.path.basename(stem)
-    for entry in os.listdir(folder):
-        rest = entry[len(base) :] if entry.startswith(base) else None
-        if rest is not None and (rest == PART_SUFFIX or _SEGMENT.fullmatch(rest)):
-            os.remove(os.path.join(folder, entry))
-
-
-def _output_times(path: str) -> list[float] | None:
-    """The time values of an XDMF file, or None if it, or an HDF5 file it names, is missing
-    or unreadable."""
-    if not os.path.isfile(path):
-        return None
-    folder = os.path.dirname(path)
-    try:
-        root = ElementTree.parse(path).getroot()
-        for item in root.iter("DataItem"):
-            if item.get("Format") == "HDF":
-                data = (item.text or "").strip().split(":", 1)[0]
-                if not os.path.isfile(os.path.join(folder, data)):
-                    return None
-        return [float(node.get("Value")) for node in root.iter("Time")]
-    except (OSError, ValueError, TypeError, ElementTree.ParseError):
-        return None
-
-
-def continue_solution(path: str, t: float, step: int, comm) -> tuple[str, bool]:
-    """Where a run restarted at time ``t`` (step ``step``) writes its fields.
-
-    Returns ``(path, True)`` to append to ``path`` when it holds a readable series
-    that ends at or before ``t``: the normal case, since a run stopped by a solver
-    failure or a signal saves its last step. If it holds fields after ``t`` (the run
-    was killed after its last periodic checkpoint) or cannot be read, the fields go
-    to a new file ``<name>-from-step<step>.xdmf`` instead: ``(that path, False)``;
-    the levels after ``t`` stay in ``path`` as the killed run wrote them.
-    """
-    decision = None
-    if comm.rank == 0:
-        times = _output_times(path)
-        tolerance = 1e-9 * max(abs(t), 1.0)
-        if times is None and not os.path.exists(path):
-            decision = (path, False)
-        elif times is not None and all(time <= t + tolerance for time in times):
-            decision = (path, True)
-        else:
-            stem, extension = os.path.splitext(path)
-            decision = (f"{stem}-from-step{step}{extension}", False)
-    return comm.bcast(decision, root=0)
 
 
 def ensure_directory(path: str, comm) -> str:

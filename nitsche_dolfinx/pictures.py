@@ -1,4 +1,5 @@
-"""Pictures of the deformed body coloured by von Mises, from any MPI run (pyvista, optional).
+"""Pictures of the deformed body coloured by von Mises or by the contact pressure, from any
+MPI run (pyvista, optional).
 
 :class:`Snapshot` is a :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>`
 callback that gathers the fields of one time level on rank 0;
@@ -8,6 +9,11 @@ drawn curved, with their edges. Used by the impact demos::
     snapshot = Snapshot(at=18.0)
     simulation.run(out=out, callback=snapshot)
     render_deformed(snapshot, dim=3, title="ball", path="deformed_t18.png")
+
+:func:`render_contact_pressure` draws the contact pressure on Gamma_C of a level of a
+written ``solution.xdmf`` (docs/method.md section 6), from the file alone::
+
+    render_contact_pressure("out/ball_3d/solution.xdmf", 18.0, "contact_pressure_t18.png")
 """
 
 from __future__ import annotations
@@ -20,7 +26,7 @@ from dolfinx import fem
 from . import compat
 from .material import von_mises
 
-__all__ = ["Snapshot", "render_deformed"]
+__all__ = ["Snapshot", "render_contact_pressure", "render_deformed"]
 
 
 class Snapshot:
@@ -81,6 +87,28 @@ class Snapshot:
         )
 
 
+def _with_pyvista(draw, path: str) -> None:
+    """Call ``draw(pyvista)``, pyvista imported off screen; one line if pyvista is missing or
+    rendering fails (a picture is never worth a failed run)."""
+    with compat.own_symbols():
+        try:
+            import pyvista
+        except ImportError:
+            print("pyvista is not installed: no picture")
+            return
+        try:
+            with contextlib.suppress(ImportError):  # no "bad X server connection" warnings
+                from vtkmodules.vtkCommonCore import vtkLogger
+
+                vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+            pyvista.OFF_SCREEN = True
+            draw(pyvista)
+        except Exception as error:
+            print(f"no picture: rendering failed ({type(error).__name__}: {error})")
+            return
+    print(f"picture: {path}")
+
+
 def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None:
     """Draw the deformed body coloured by von Mises into ``path`` (rank 0).
 
@@ -90,26 +118,10 @@ def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None
     if snapshot.grid is None:
         print(f"no picture: this run did not compute the time level t = {snapshot.at:g}")
         return
-    with compat.own_symbols():
-        try:
-            import pyvista
-        except ImportError:
-            print("pyvista is not installed: no picture")
-            return
-        try:
-            _render(pyvista, snapshot, dim, title, path)
-        except Exception as error:  # a picture is never worth a failed run
-            print(f"no picture: rendering failed ({type(error).__name__}: {error})")
-            return
-    print(f"picture: {path}")
+    _with_pyvista(lambda pyvista: _render(pyvista, snapshot, dim, title, path), path)
 
 
 def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> None:
-    with contextlib.suppress(ImportError):  # no "bad X server connection" warnings
-        from vtkmodules.vtkCommonCore import vtkLogger
-
-        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
-    pyvista.OFF_SCREEN = True
     cells, cell_types, points, displacement, von_mises = snapshot.grid
     grid = pyvista.UnstructuredGrid(cells, cell_types, points)
     grid.point_data["displacement"] = displacement
@@ -214,4 +226,80 @@ def _plot_2d(pyvista, surface, edges, colours, bar, text):
     plotter.view_xy()
     plotter.camera.zoom(1.35)
     plotter.add_text(text, font_size=11)
+    return plotter
+
+
+#: VTK cell types of the XDMF topologies of this package's meshes (same node order).
+_VTK_CELLS = {"Triangle": 5, "Triangle_6": 22, "Tetrahedron": 10, "Tetrahedron_10": 24}
+
+
+def render_contact_pressure(solution: str, t: float, path: str, title: str = "ball") -> None:
+    """Draw the contact pressure lambda_h (<= 0) on Gamma_C at the level of ``solution`` (an
+    XDMF series of :class:`~nitsche_dolfinx.output.SolutionWriter`) nearest ``t`` into
+    ``path``: the deformed body from aside and, in 3D, its contact zone seen from below.
+
+    Reads the file with h5py (call it on one rank); pyvista is optional and renders off
+    screen; if it is missing or rendering fails, one line says so.
+    """
+    from .series import read_solution
+
+    (level,) = read_solution(solution, t)
+    if "contact_pressure" not in level.fields:
+        print(f"no picture: {solution} has no contact_pressure")
+        return
+    _with_pyvista(lambda pyvista: _render_pressure(pyvista, level, title, path), path)
+
+
+def _render_pressure(pyvista, level, title: str, path: str) -> None:
+    points = np.zeros((len(level.points), 3))
+    points[:, : level.points.shape[1]] = level.points
+    count = level.cells.shape[1]
+    cells = np.hstack([np.full((len(level.cells), 1), count), level.cells]).ravel()
+    types = np.full(len(level.cells), _VTK_CELLS[level.cell_type], dtype=np.uint8)
+    grid = pyvista.UnstructuredGrid(cells, types, points)
+    grid.point_data["displacement"] = level.fields["displacement"]
+    pressure = level.fields["contact_pressure"][:, 0]
+    grid.point_data["contact pressure"] = pressure
+    deformed = grid.warp_by_vector("displacement", factor=1.0)
+    surface = _surface(deformed, 3)
+    edges = _curved_edges(pyvista, cells, deformed.points, samples=8)
+    low = min(float(pressure.min()), -1e-300)
+    colours = {"scalars": "contact pressure", "cmap": "viridis", "clim": (low, 0.0)}
+    bar = {
+        "title": "contact pressure lambda_h",
+        "n_labels": 5,
+        "fmt": "%.2g",
+        "position_x": 0.3,
+        "position_y": 0.04,
+        "width": 0.4,
+        "height": 0.06,
+    }
+    text = f"{title}, t = {level.t:.4g}: contact pressure on Gamma_C"
+    if level.points.shape[1] == 2 or not np.any(points[:, 2]):
+        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text)
+    else:
+        plotter = _plot_contact_zone(pyvista, surface, edges, colours, bar, text)
+    plotter.screenshot(path)
+    plotter.close()
+
+
+def _plot_contact_zone(pyvista, surface, edges, colours, bar, text):
+    """The ball from aside and below, and seen from below, the ground removed."""
+    centre = surface.points.mean(axis=0)
+    edges = edges.copy()  # lifted off the surface by 0.2 %, so that no face hides them
+    edges.points = centre + 1.002 * (edges.points - centre)
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
+    views = [
+        ([(70.0, -90.0, -25.0), (0.0, 0.0, 10.0), (0.0, 0.0, 1.0)], text),
+        ([(0.0, -4.0, -88.0), (0.0, -4.0, 0.0), (0.0, 1.0, 0.0)], "seen from below"),
+    ]
+    for column, (camera, label) in enumerate(views):
+        plotter.subplot(0, column)
+        if column:
+            plotter.add_mesh(surface, scalar_bar_args=bar, **colours)
+        else:
+            plotter.add_mesh(surface, show_scalar_bar=False, **colours)
+        plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
+        plotter.camera_position = camera
+        plotter.add_text(label, font_size=11)
     return plotter

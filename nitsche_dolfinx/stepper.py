@@ -22,6 +22,7 @@ from mpi4py import MPI
 
 from . import compat
 from .diagnostics import Diagnostics
+from .fields import ContactFields, OnBoundary
 from .friction import ContactTerms, FrictionOutput, GuardedNewton
 from .material import von_mises
 from .model import ContactProblem, as_array
@@ -110,7 +111,9 @@ class Stepper(Protocol):
         """The diagnostics of the current time level, identical on every rank."""
 
     def output_fields(self) -> dict:
-        """``{name: (Function or UFL expression, value shape)}`` for the field output."""
+        """``{name: (source, value shape)}`` for the field output: a source is a Function, a
+        UFL expression or an object with ``evaluate(target)`` (see
+        :class:`~nitsche_dolfinx.output.SolutionWriter`)."""
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         """Everything the next step depends on, by name."""
@@ -287,6 +290,7 @@ class NitscheStepper(TimeLevels):
         self._diagnostics_cache = None  # (step index, diagnostics) of the current level
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
+        self._contact_fields = None  # ContactFields, once the output asks for them
         self._massless = problem.massless_dofs()
         self._initialize(petsc_options)
 
@@ -470,21 +474,31 @@ class NitscheStepper(TimeLevels):
         return self.problem.contacts[0].pressure(self.u)
 
     def output_fields(self) -> dict:
-        """Displacement, velocity, von Mises stress, and with friction the slip velocity
-        and the friction traction on Gamma_C (:class:`~nitsche_dolfinx.friction.FrictionOutput`)."""
+        """Displacement, velocity, von Mises stress, the contact fields on Gamma_C
+        (:class:`~nitsche_dolfinx.fields.ContactFields`: contact pressure, gap, contact
+        status) and with friction the slip velocity and the friction traction
+        (:class:`~nitsche_dolfinx.friction.FrictionOutput`)."""
         shape = (self.problem.gdim,)
         fields = {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
             "von_mises": (von_mises(self.u, self.problem.material), ()),
         }
-        if self._friction is not None:
-            for field in self._friction.fields:
-                fields[field.function.name] = (field.function, shape)
+        if self.problem.contacts:
+            if self._contact_fields is None:  # compiled when first asked for
+                self._contact_fields = ContactFields(self.problem, self.u)
+            fields.update(self._contact_fields.fields())
+            if self._friction is not None:
+                for field in self._friction.fields:
+                    source = OnBoundary(field.function, self._contact_fields.facets)
+                    fields[field.function.name] = (source, shape)
         return fields
 
     def before_output(self) -> None:
-        """Update the boundary projections of the friction fields (only when written)."""
+        """Update the boundary projections of the contact and friction fields (only when
+        written)."""
+        if self._contact_fields is not None:
+            self._contact_fields.update()
         if self._friction is not None:
             self._friction.update_fields()
 

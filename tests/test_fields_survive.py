@@ -8,8 +8,9 @@
   equal the uninterrupted run's node by node: the nodes are numbered by the partition
   of the mesh, which is not the same from one ``mpirun`` to the next.
 
-The series are read as ParaView reads them: each level with the geometry of the mesh
-grid its ``xi:include`` points to, the values from the HDF5 file its ``DataItem`` names.
+The series are read as ParaView reads them (``series.read_solution``): each level with the
+geometry of the mesh grid its ``xi:include`` points to, the values from the HDF5 file its
+``DataItem`` names.
 """
 
 import os
@@ -17,7 +18,6 @@ import re
 import shutil
 import signal
 import subprocess
-import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
@@ -27,43 +27,21 @@ from runs import MPIRUN, command, environment
 from nitsche_dolfinx import HybridScheme, Simulation
 from nitsche_dolfinx.cases import block_problem
 from nitsche_dolfinx.checkpoint import match_points
+from nitsche_dolfinx.series import read_solution
 
 # -- reading a series ---------------------------------------------------------------------------
 
 
 def read_series(path: str) -> dict[str, dict[float, tuple[np.ndarray, np.ndarray]]]:
-    """``{field: {t: (node coordinates, values)}}`` of an XDMF time series, read with h5py."""
-    h5py = pytest.importorskip("h5py")
-    folder = os.path.dirname(path)
-    domain = ElementTree.parse(path).getroot().find("Domain")
-    meshes = [grid for grid in domain.findall("Grid") if grid.get("GridType") == "Uniform"]
-
-    def dataset(item):
-        name, inside = item.text.strip().split(":", 1)
-        with h5py.File(os.path.join(folder, name), "r") as h5:
-            return h5[inside][()]
-
+    """``{field: {t: (node coordinates, values)}}`` of an XDMF time series, read with h5py,
+    each level with the mesh its grid includes."""
+    pytest.importorskip("h5py")
     series = {}
-    for collection in domain.findall("Grid"):
-        if collection.get("GridType") != "Collection":
-            continue
-        levels = {}
-        for grid in collection.findall("Grid"):
-            include = next(child for child in grid if child.tag.endswith("}include"))
-            pointer = include.get("xpointer")
-            named = re.search(r"Grid\[@Name='([^']+)'\]", pointer)
-            if named:
-                (mesh,) = [m for m in meshes if m.get("Name") == named.group(1)]
-            else:  # dolfinx's default: the first mesh of the file
-                assert "Grid[@GridType='Uniform'][1]" in pointer, pointer
-                mesh = meshes[0]
-            t = float(grid.find("Time").get("Value"))
-            assert t not in levels, (collection.get("Name"), t)
-            points = dataset(mesh.find("Geometry/DataItem"))
-            values = dataset(grid.find("Attribute/DataItem"))
-            assert len(points) == len(values)
-            levels[t] = (points, values)
-        series[collection.get("Name")] = levels
+    for level in read_solution(path):
+        for name, values in level.fields.items():
+            assert level.t not in series.setdefault(name, {}), (name, level.t)
+            assert len(level.points) == len(values)
+            series[name][level.t] = (level.points, values)
     return series
 
 
