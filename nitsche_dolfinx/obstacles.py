@@ -13,7 +13,13 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
-__all__ = ["Obstacle", "PlaneObstacle", "SignedDistanceObstacle"]
+__all__ = [
+    "CylinderObstacle",
+    "Obstacle",
+    "PlaneObstacle",
+    "SignedDistanceObstacle",
+    "SphereObstacle",
+]
 
 
 class Obstacle:
@@ -87,3 +93,94 @@ class SignedDistanceObstacle(Obstacle):
 
     def distance(self, x):
         return self._distance(x)
+
+
+def _finite_vector(value, what: str) -> np.ndarray:
+    array = np.asarray(value, dtype=float).reshape(-1)
+    if array.size == 0 or not np.all(np.isfinite(array)):
+        raise ValueError(f"{what} must be finite, got {array.tolist()}")
+    return array
+
+
+def _check_radius(radius: float, side: str) -> float:
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"the radius must be positive, got {radius!r}")
+    if side not in ("outside", "inside"):
+        raise ValueError(f"side must be 'outside' or 'inside', got {side!r}")
+    return float(radius)
+
+
+def _check_dimension(array: np.ndarray, x, what: str) -> None:
+    if array.size != x.ufl_shape[0]:
+        raise ValueError(
+            f"{what} {array.tolist()} has {array.size} coordinates, the mesh has {x.ufl_shape[0]}"
+        )
+
+
+class SphereObstacle(Obstacle):
+    """A rigid sphere (a circle in 2D) of ``radius`` around ``center``.
+
+    Args:
+        center: The centre, of the mesh's dimension.
+        radius: The radius (> 0).
+        side: Where the body is: ``"outside"`` (a rigid ball, d = |x - c| - R) or
+            ``"inside"`` (a spherical cavity, d = R - |x - c|).
+    """
+
+    def __init__(self, center: Sequence[float], radius: float, side: str = "outside"):
+        self.center = _finite_vector(center, "the sphere's centre")
+        self.radius = _check_radius(radius, side)
+        self.side = side
+
+    def distance(self, x):
+        _check_dimension(self.center, x, "the sphere's centre")
+        r = x - ufl.as_vector(self.center.tolist())
+        d = ufl.sqrt(ufl.dot(r, r)) - self.radius
+        return d if self.side == "outside" else -d
+
+    def __repr__(self):
+        return (
+            f"SphereObstacle(center={self.center.tolist()}, radius={self.radius!r}, "
+            f"side={self.side!r})"
+        )
+
+
+class CylinderObstacle(Obstacle):
+    """A rigid circular cylinder in 3D: the points at ``radius`` from the axis through
+    ``point`` along ``axis``.
+
+    Args:
+        point: A point of the axis (3 coordinates).
+        axis: The direction of the axis (any non-zero length).
+        radius: The radius (> 0).
+        side: Where the body is: ``"outside"`` (a rigid pillar) or ``"inside"`` (a pipe).
+    """
+
+    def __init__(
+        self, point: Sequence[float], axis: Sequence[float], radius: float, side: str = "outside"
+    ):
+        self.point = _finite_vector(point, "the cylinder's point")
+        axis = _finite_vector(axis, "the cylinder's axis")
+        length = float(np.linalg.norm(axis))
+        if length == 0.0 or axis.size != self.point.size:
+            raise ValueError(
+                f"the cylinder's axis {axis.tolist()} must be non-zero, with as many "
+                f"coordinates as its point {self.point.tolist()}"
+            )
+        self.axis = axis / length
+        self.radius = _check_radius(radius, side)
+        self.side = side
+
+    def distance(self, x):
+        _check_dimension(self.point, x, "the cylinder's point")
+        r = x - ufl.as_vector(self.point.tolist())
+        a = ufl.as_vector(self.axis.tolist())
+        radial = r - ufl.dot(r, a) * a
+        d = ufl.sqrt(ufl.dot(radial, radial)) - self.radius
+        return d if self.side == "outside" else -d
+
+    def __repr__(self):
+        return (
+            f"CylinderObstacle(point={self.point.tolist()}, axis={self.axis.tolist()}, "
+            f"radius={self.radius!r}, side={self.side!r})"
+        )
