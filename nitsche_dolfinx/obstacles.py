@@ -110,6 +110,16 @@ def _check_radius(radius: float, side: str) -> float:
     return float(radius)
 
 
+def _constants(obstacle, x, *values) -> tuple:
+    """``values`` as fem.Constants on the mesh of ``x``, made once per obstacle and mesh
+    (the gap and the normal share them)."""
+    domain = x.ufl_domain()
+    cached = obstacle.__dict__.get("_constants")
+    if cached is None or cached[0] is not domain:
+        cached = obstacle._constants = (domain, tuple(fem.Constant(domain, v) for v in values))
+    return cached[1]
+
+
 def _check_dimension(array: np.ndarray, x, what: str) -> None:
     if array.size != x.ufl_shape[0]:
         raise ValueError(
@@ -132,11 +142,24 @@ class SphereObstacle(Obstacle):
         self.radius = _check_radius(radius, side)
         self.side = side
 
-    def distance(self, x):
+    def _radial(self, x):
+        """x - c, and the radius, with the centre and the radius as constants (another
+        sphere compiles no new form)."""
         _check_dimension(self.center, x, "the sphere's centre")
-        r = x - ufl.as_vector(self.center.tolist())
-        d = ufl.sqrt(ufl.dot(r, r)) - self.radius
+        center, radius = _constants(self, x, self.center, self.radius)
+        return x - center, radius
+
+    def distance(self, x):
+        r, radius = self._radial(x)
+        d = ufl.sqrt(ufl.dot(r, r)) - radius
         return d if self.side == "outside" else -d
+
+    def normal(self, x):
+        # -grad d / |grad d| written out: the radius, a constant that the gradient drops,
+        # would be left out of the compiled expression's constants (FFCx 0.5)
+        r, _ = self._radial(x)
+        unit = r / ufl.sqrt(ufl.dot(r, r))
+        return -unit if self.side == "outside" else unit
 
     def __repr__(self):
         return (
@@ -171,13 +194,22 @@ class CylinderObstacle(Obstacle):
         self.radius = _check_radius(radius, side)
         self.side = side
 
-    def distance(self, x):
+    def _radial(self, x):
+        """The component of x - point normal to the axis, and the radius (constants)."""
         _check_dimension(self.point, x, "the cylinder's point")
-        r = x - ufl.as_vector(self.point.tolist())
-        a = ufl.as_vector(self.axis.tolist())
-        radial = r - ufl.dot(r, a) * a
-        d = ufl.sqrt(ufl.dot(radial, radial)) - self.radius
+        point, radius, axis = _constants(self, x, self.point, self.radius, self.axis)
+        r = x - point
+        return r - ufl.dot(r, axis) * axis, radius
+
+    def distance(self, x):
+        radial, radius = self._radial(x)
+        d = ufl.sqrt(ufl.dot(radial, radial)) - radius
         return d if self.side == "outside" else -d
+
+    def normal(self, x):
+        radial, _ = self._radial(x)  # as the sphere's: -grad d / |grad d| written out
+        unit = radial / ufl.sqrt(ufl.dot(radial, radial))
+        return -unit if self.side == "outside" else unit
 
     def __repr__(self):
         return (

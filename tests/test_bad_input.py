@@ -195,7 +195,7 @@ TOML = {
     ),
     "method-unknown": (
         {"gamma0 = 1e-6": 'gamma0 = 1e-6\nmethod = "lagrange"'},
-        "[nitsche] method = 'lagrange': unknown; choose one of nitsche, penalty, mixed",
+        "[nitsche] method = 'lagrange': unknown contact method; choose one of nitsche,",
     ),
     "mixed-with-friction": (
         {"gamma0 = 1e-6": 'gamma0 = 1e-6\nmethod = "mixed"\nfriction = 0.1'},
