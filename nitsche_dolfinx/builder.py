@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import bad, reported_at
+from .config import bad, output_parameters, reported_at, setting
 from .schema import SCHEMA
 from .valueforms import field_value, time_value
 
@@ -40,34 +40,29 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     from .simulation import Simulation
 
     comm = comm or MPI.COMM_WORLD
+
+    def get(table: str, key: str):
+        return setting(config, table, key)
+
     # the values first, the mesh last: a bad value stops the run before any meshing
     material = _material(config, source)
-    s, mesh_table = config["scheme"], config["mesh"]
-    nitsche, solver = config.get("nitsche", {}), config.get("solver", {})
     with reported_at("[scheme]", source):
-        scheme = make_scheme(
-            s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
+        scheme = make_scheme(*(get("scheme", key) for key in ("name", "theta", "beta", "gamma")))
+        time_stepping = TimeStepping(
+            get("scheme", "dt"), get("scheme", "t_end"), get("scheme", "max_step_cuts")
         )
-        time_stepping = TimeStepping(s["dt"], s["t_end"], s.get("max_step_cuts", 5))
     with reported_at("[nitsche]", source):
         contact = NitscheParameters(
-            nitsche.get("gamma0", 1e-3),
-            nitsche.get("theta", 1.0),
-            nitsche.get("friction"),
-            nitsche.get("method", "nitsche"),
-            nitsche.get("gamma0_scaling", "absolute"),
+            *(get("nitsche", key) for key in ("gamma0", "theta", "friction", "method")),
+            gamma0_scaling=get("nitsche", "gamma0_scaling"),
         )
     with reported_at("[mesh]", source):
         discretisation = Discretisation(
-            mesh_table.get("degree", 1),
-            mesh_table.get("mass", "consistent"),
-            mesh_table.get("quadrature_degree"),
+            *(get("mesh", key) for key in ("degree", "mass", "quadrature_degree"))
         )
     obstacles = _obstacles(config, source)
-    from .config import output_parameters
-
     output_parameters(config, source)
-    mesh, cell_tags, facet_tags = _mesh(mesh_table, comm, source)
+    mesh, cell_tags, facet_tags = _mesh(config["mesh"], comm, source)
     _check_dimensions(config, mesh.geometry.dim, source)
     with reported_at("[nitsche]", source):
         problem = ContactProblem(
@@ -82,10 +77,10 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
             time_stepping.t_end,
             petsc_options=config.get("petsc"),
             progress=progress,
-            reuse_jacobian=solver.get("reuse_jacobian", True),
-            preconditioner_lag=solver.get("preconditioner_lag", 0),
-            guard_friction=solver.get("guard_friction", True),
-            linear_solver=solver.get("linear_solver"),
+            reuse_jacobian=get("solver", "reuse_jacobian"),
+            preconditioner_lag=get("solver", "preconditioner_lag"),
+            guard_friction=get("solver", "guard_friction"),
+            linear_solver=get("solver", "linear_solver"),
             max_step_cuts=time_stepping.max_step_cuts,
         )
     _add_probes(simulation, config, contacts, cell_tags, source)
@@ -97,7 +92,7 @@ def _material(config: dict, source: str):
     from .material import Material
 
     m = config["material"]
-    rho = m.get("rho", 1.0)
+    rho = setting(config, "material", "rho")
     with reported_at("[material]", source):
         if "E" in m:
             return Material(E=m["E"], nu=m["nu"], rho=rho)
@@ -110,17 +105,14 @@ def _obstacles(config: dict, source: str) -> list:
 
     obstacles = []
     for index, table in enumerate(config.get("obstacle", [])):
-        kind = table.get("type", "plane")
+        kind, side = (setting(config, "obstacle", key, table) for key in ("type", "side"))
         with reported_at(f"[[obstacle]] #{index + 1}", source):
             if kind == "plane":
                 obstacle = PlaneObstacle(table["point"], table["normal"])
             elif kind == "cylinder":
-                side = table.get("side", "outside")
                 obstacle = CylinderObstacle(table["point"], table["axis"], table["radius"], side)
             else:
-                obstacle = SphereObstacle(
-                    table["center"], table["radius"], table.get("side", "outside")
-                )
+                obstacle = SphereObstacle(table["center"], table["radius"], side)
         obstacles.append(obstacle)
     return obstacles
 
@@ -171,7 +163,7 @@ def _check_dimensions(config: dict, gdim: int, source: str) -> None:
                         f"has {size} component{'s' * (size != 1)}, the mesh is {gdim}D",
                     )  # fmt: skip
     for index, table in enumerate(config.get("obstacle", [])):
-        kind = table.get("type", "plane")
+        kind = setting(config, "obstacle", "type", table)
         if gdim not in _OBSTACLE_DIMENSIONS[kind]:
             dims = " or ".join(f"{d}D" for d in _OBSTACLE_DIMENSIONS[kind])
             raise bad(
@@ -186,7 +178,9 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
     for index, pair in enumerate(config.get("contact_pair", [])):
         with reported_at(f"[[contact_pair]] #{index + 1}", source):
             problem.add_contact_pair(
-                *pair["tags"], pair.get("variant", "unbiased"), pair.get("direction")
+                *pair["tags"],
+                setting(config, "contact_pair", "variant", pair),
+                setting(config, "contact_pair", "direction", pair),
             )
     contacts = []
     for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
@@ -251,7 +245,7 @@ def _add_probes(simulation, config: dict, contacts: list, cell_tags, source: str
                 else contacts[0].pressure(simulation.u)
             )
         else:
-            component = probe.get("component", 0)
+            component = setting(config, "probe", "component", probe)
             if not 0 <= component < problem.gdim:
                 raise bad(source, where, "component", component, f"the mesh is {problem.gdim}D")
             function = simulation.u if quantity == "displacement" else simulation.v

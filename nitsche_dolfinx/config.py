@@ -54,7 +54,7 @@ import math
 import os
 
 from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
-from .schema import KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, SCHEMA
+from .schema import KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, REQUIRED, SCHEMA
 from .valueforms import check_field_value, check_time_value
 
 __all__ = [
@@ -124,6 +124,14 @@ def _toml_module():
 
 def _shown(value) -> str:
     return repr(value)
+
+
+def setting(config: dict, table: str, key: str, item: dict | None = None):
+    """``[table] key`` of ``config`` (of ``item``, one of the tables ``[[table]]``), or its
+    default in :data:`SCHEMA` (None: not set)."""
+    default = SCHEMA[table].keys[key].default
+    values = item if item is not None else config.get(table, {})
+    return values.get(key, None if default is REQUIRED else default)
 
 
 def bad(source: str, where: str, key: str, value, requirement: str) -> ConfigError:
@@ -227,7 +235,7 @@ def _check_scheme_keys(scheme: dict, source: str) -> None:
     """[scheme] theta, beta, gamma only for the scheme that takes them."""
     from .schemes import SCHEMES
 
-    name = scheme.get("name", "hybrid")
+    name = setting({"scheme": scheme}, "scheme", "name")
     if name not in SCHEMES:
         return  # named by the scheme's own check, with the table's label
     for key in ("theta", "beta", "gamma"):
@@ -241,7 +249,7 @@ def _check_scheme_keys(scheme: dict, source: str) -> None:
 def _check_mesh(mesh: dict, source: str) -> None:
     """A file or a generator, and only the keys the generator takes, in their ranges."""
     if ("file" in mesh) == ("generator" in mesh):
-        raise ConfigError(f"{source}: [mesh] needs file (a mesh file) or generator, not both")
+        raise ConfigError(f"{source}: [mesh] needs one of file (a mesh file) and generator")
     if "file" in mesh:
         extra = [key for key in mesh if key in GENERATOR_KEYS]
         if extra:
@@ -273,7 +281,7 @@ def _check_mesh(mesh: dict, source: str) -> None:
 
 
 def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
-    kind = obstacle.get("type", "plane")
+    kind = setting({}, "obstacle", "type", obstacle)
     keys, _ = OBSTACLE_TYPES[kind]
     for key in obstacle:
         if key not in ("type", "tag", *keys):
@@ -379,7 +387,7 @@ def output_parameters(config: dict, source: str = "config", checkpoint_every=Non
 
     output = config.get("output", {})
     if checkpoint_every is None:
-        checkpoint_every = output.get("checkpoint_every", 0)
+        checkpoint_every = setting(config, "output", "checkpoint_every")
     every = output.get("every")
     if every is None:
         scheme = config["scheme"]

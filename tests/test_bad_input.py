@@ -220,7 +220,7 @@ TOML = {
     # generated meshes
     "file-and-generator": (
         {"degree = 1": 'degree = 1\ngenerator = "disk"'},
-        "[mesh] needs file (a mesh file) or generator, not both",
+        "[mesh] needs one of file (a mesh file) and generator",
     ),
     "generator-key-for-file": (
         {"degree = 1": "degree = 1\norder = 2"},

@@ -152,6 +152,27 @@ def test_configuration_reproduces_demo(tmp_path, name):
     assert touched.max() > 0
 
 
+@pytest.mark.mpi
+@pytest.mark.parametrize("name", ["disk_2d", "two_disks_2d"])
+def test_configuration_reproduces_demo_in_parallel(mpi_tmp_path, name):
+    """The same on every rank of mpirun -n 2 (the pair's partners on other ranks too)."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    toml, replace, argv, run_folder = CASES[name]
+    run_demo(argv, os.path.join(mpi_tmp_path, "demo"))
+    folder = os.path.join(mpi_tmp_path, "config")
+    if comm.rank == 0:
+        os.makedirs(folder)
+        shortened(toml, replace, folder)
+    comm.barrier()
+    config = os.path.join(folder, toml)
+    assert cli(["run", config, "--quiet", "--out", os.path.join(mpi_tmp_path, "toml")]) == 0
+    comm.barrier()
+    demo = read_history(os.path.join(mpi_tmp_path, "demo", run_folder, "history.csv"))
+    assert_same_columns(read_history(os.path.join(mpi_tmp_path, "toml", "history.csv")), demo)
+
+
 def test_every_demo_has_a_configuration():
     """Every demo but the convergence study (runs of bar_1d.toml with other nx and dt) has
     its TOML files here."""
