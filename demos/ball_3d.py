@@ -85,8 +85,8 @@ from mpi4py import MPI
 from nitsche_dolfinx import Simulation, make_scheme
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
     add_run_arguments,
+    add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
@@ -128,7 +128,6 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
     )
     add_method_arguments(parser, gamma0=1e-3, degree=2, dt=0.1, t_end=40.0, beta=0.5, gamma=1.0)
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
-    add_output_every_argument(parser)
     parser.add_argument(
         "--mu", type=finite_float, default=None, help="Coulomb coefficient (default: none)"
     )
@@ -147,7 +146,7 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         help="extra PETSc option of the step's solver (repeatable; wins over --linear-solver)",
     )  # fmt: skip
     add_run_arguments(parser)
-    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    add_terminal_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
     parser.add_argument(
         "--compare", action=argparse.BooleanOptionalAction, default=True,

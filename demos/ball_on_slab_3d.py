@@ -32,7 +32,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
+    add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
@@ -58,9 +58,8 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--dim", type=int, choices=(2, 3), default=3, help="3: ball, 2: disk")
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
     parser.add_argument("--v0", type=finite_float, default=1.0, help="the ball's initial speed")
-    add_output_every_argument(parser)
     parser.add_argument("--out", default=os.path.join("out", "ball_on_slab_3d"))
-    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    add_terminal_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="no energy figure")
     return parser
 

@@ -76,6 +76,7 @@ from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
     add_run_arguments,
+    add_terminal_arguments,
     check_output_folder,
     method_parameters,
     one_line_errors,
@@ -116,6 +117,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
     add_run_arguments(parser)
+    add_terminal_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     parser.add_argument(
         "--compare",
@@ -170,16 +172,24 @@ def bar_simulation(args: argparse.Namespace, scheme_name: str, method: str):
 # iterations per step.
 
 
-def run(args: argparse.Namespace, scheme_name: str, out: str, method: str) -> dict:
-    """Run the bar with the scheme ``scheme_name``, writing ``out/history.csv``.
+def run(
+    args: argparse.Namespace, scheme_name: str, out: str, method: str, main: bool = True
+) -> dict:
+    """Run the bar with the scheme ``scheme_name``, writing ``out/history.csv`` (the main
+    run: with its progress and fields, as the flags ask).
 
     Returns:
         The run's ``label``, ``out`` and ``history`` (a :class:`History`).
     """
     sim = bar_simulation(args, scheme_name, method)
+    sim.progress = main and not args.quiet
     restart = args.restart and (out == args.out or has_checkpoint(os.path.join(out, "checkpoint")))
     history = sim.run(
-        out=out, columns=COLUMNS, checkpoint_every=args.checkpoint_every, restart=restart
+        out=out,
+        columns=COLUMNS,
+        output_every=args.output_every if main else 0,
+        checkpoint_every=args.checkpoint_every,
+        restart=restart,
     )
     label = SCHEME_LABELS.get(scheme_name, sim.scheme.describe())
     mass = "" if args.mass == "consistent" else f", {args.mass} mass"
@@ -282,12 +292,14 @@ def main(argv: list[str] | None = None) -> None:
         check_arguments(args)
         results = [run(args, args.scheme, args.out, args.method)]
         if args.compare and (args.scheme, args.method) != ("cn", "nitsche"):
-            results.append(run(args, "cn", os.path.join(args.out, "cn"), "nitsche"))
+            results.append(run(args, "cn", os.path.join(args.out, "cn"), "nitsche", main=False))
 
     if MPI.COMM_WORLD.rank == 0:
         print_summary(results, args.dt)
         for result in results:
             print(f"history: {os.path.join(result['out'], 'history.csv')}")
+        if args.output_every > 0:
+            print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
         if not args.no_plot:
             plot(results, args, os.path.join(args.out, "bar_1d.png"))
 

@@ -64,9 +64,10 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import cases
-from nitsche_dolfinx.arguments import finite_float, one_line_errors
+from nitsche_dolfinx.arguments import add_terminal_arguments, finite_float, one_line_errors
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.parameters import OutputParameters
 from nitsche_dolfinx.plotting import bar_panels, latex_number, pyplot, save
 from nitsche_dolfinx.schemes import make_scheme
 
@@ -132,6 +133,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--out", default=os.path.join("out", "compare_methods_1d"), help="output folder"
     )
+    add_terminal_arguments(parser, output_every=0)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 
@@ -160,8 +162,12 @@ def run(spec: Run, args: argparse.Namespace):
         gamma0=args.gamma0,
         nitsche_theta=1.0,
     )
-    history = simulation.run(out=os.path.join(args.out, spec.name), columns=BAR_COLUMNS)
-    return history, time.perf_counter() - start
+    out = os.path.join(args.out, spec.name)
+    history = simulation.run(out=out, columns=BAR_COLUMNS, output_every=args.output_every)
+    seconds = time.perf_counter() - start
+    if not args.quiet and MPI.COMM_WORLD.rank == 0:  # one line per run: its progress
+        print(f"{spec.label:20s} {len(history) - 1} steps in {seconds:.2f} s", flush=True)
+    return history, seconds
 
 
 def measure(spec: Run, history, seconds: float, dt: float) -> dict:
@@ -267,6 +273,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     specs = list(RUNS) + ([PENALTY] if args.penalty else [])
     with one_line_errors(parser):
+        OutputParameters(args.output_every)  # checked before any run
         runs = [run(spec, args) for spec in specs]
     if MPI.COMM_WORLD.rank != 0:
         return

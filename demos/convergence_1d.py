@@ -77,8 +77,9 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import BAR_CONTACT, BoundaryAverage, cases
-from nitsche_dolfinx.arguments import finite_float, one_line_errors
+from nitsche_dolfinx.arguments import add_terminal_arguments, finite_float, one_line_errors
 from nitsche_dolfinx.exact import BAR_ENERGY, BarSpaceTimeErrors, bar_contact_values
+from nitsche_dolfinx.parameters import OutputParameters
 from nitsche_dolfinx.plotting import latex_number, pyplot, save
 from nitsche_dolfinx.schemes import make_scheme
 
@@ -134,9 +135,17 @@ ERRORS = {
 
 
 def run_level(
-    method: Method, nx: int, ratio: float, t_end: float, gamma0: float, degree: int = 1
+    method: Method,
+    nx: int,
+    ratio: float,
+    t_end: float,
+    gamma0: float,
+    degree: int = 1,
+    out: str | None = None,
+    output_every: int = 0,
 ) -> dict:
-    """Errors of ``method`` with ``nx`` cells and tau = ratio / nx over (0, t_end)."""
+    """Errors of ``method`` with ``nx`` cells and tau = ratio / nx over (0, t_end); with
+    ``out``, its history and (every ``output_every`` steps) its fields are written there."""
     start = time.perf_counter()
     h = 1.0 / nx
     dt = ratio * h
@@ -158,7 +167,7 @@ def run_level(
     )
     errors = BarSpaceTimeErrors(simulation)
     errors(simulation)  # t = 0
-    history = simulation.run(callback=errors)
+    history = simulation.run(out=out, callback=errors, output_every=output_every)
     _, _, sigma = bar_contact_values(history["t"])
     return {
         "method": method.name,
@@ -218,6 +227,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--out", default=os.path.join("out", "convergence_1d"), help="output folder"
     )
+    add_terminal_arguments(parser, output_every=0)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 
@@ -352,12 +362,18 @@ def main(argv: list[str] | None = None) -> None:
     comm = MPI.COMM_WORLD
     results = {}
     with one_line_errors(parser):
+        OutputParameters(args.output_every)  # checked before any run
         for name in args.methods:
             results[name] = []
             for nx in levels:
-                row = run_level(METHODS[name], nx, args.ratio, args.t_end, args.gamma0, args.degree)
+                # the fields only when asked for, each level in a folder of its own
+                out = os.path.join(args.out, name, f"N{nx}") if args.output_every else None
+                row = run_level(
+                    METHODS[name], nx, args.ratio, args.t_end, args.gamma0, args.degree,
+                    out, args.output_every,
+                )  # fmt: skip
                 results[name].append(row)
-                if comm.rank == 0:
+                if comm.rank == 0 and not args.quiet:  # one line per level: its progress
                     print(
                         f"{name:14s} N = {nx:4d}: l2(L2) {row['error_l2_l2']:.3e}, "
                         f"l2(H1) {row['error_l2_h1']:.3e} ({row['wall_seconds']:.1f} s)",

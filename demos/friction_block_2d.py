@@ -60,7 +60,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
+    add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
@@ -88,9 +88,8 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     )
     parser.add_argument("--E", type=finite_float, default=1e4, help="Young's modulus")
     parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
-    add_output_every_argument(parser)
     parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
-    parser.add_argument("--quiet", action="store_true", help="no line per step")
+    add_terminal_arguments(parser)
     return parser, parser.parse_args(argv)
 
 

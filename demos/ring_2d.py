@@ -74,7 +74,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
+    add_terminal_arguments,
     method_parameters,
     one_line_errors,
     scheme_from_arguments,
@@ -107,12 +107,11 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.005, t_end=1.0)
-    add_output_every_argument(parser)
     parser.add_argument(
         "--mesh", default=DEFAULT_MESH, help="gmsh .msh file of the ring (from meshes/ring_2d.py)"
     )
     parser.add_argument("--out", default=os.path.join("out", "ring_2d"), help="output folder")
-    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    add_terminal_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 

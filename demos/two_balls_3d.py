@@ -39,7 +39,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
+    add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
@@ -70,13 +70,12 @@ def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
         "--pairing", choices=("axis", "closest"), default="axis",
         help="pair the surfaces along the collision axis, or with closest points",
     )  # fmt: skip
-    add_output_every_argument(parser)
     parser.add_argument("--out", default=os.path.join("out", f"two_{body}s_{dim}d"))
     parser.add_argument(
         "--compare", action=argparse.BooleanOptionalAction, default=True,
         help="also run one body on the rigid plane of symmetry with gamma0/2 (OUT/plane)",
     )  # fmt: skip
-    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    add_terminal_arguments(parser)
     parser.add_argument("--no-plot", action="store_true", help="no energy figure")
     return parser
 

@@ -40,7 +40,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
-    add_output_every_argument,
+    add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
@@ -79,9 +79,8 @@ def make_parser() -> argparse.ArgumentParser:
         "--refine", type=int, default=0, metavar="N",
         help="also run N refinements (nx doubled, dt halved) and write OUT/refinement.csv",
     )  # fmt: skip
-    add_output_every_argument(parser, default=0)
     parser.add_argument("--out", default=os.path.join("out", "two_bars_1d"), help="output folder")
-    parser.add_argument("--quiet", action="store_true", help="no line per time step")
+    add_terminal_arguments(parser, output_every=0)
     parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 

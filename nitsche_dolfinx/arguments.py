@@ -8,7 +8,9 @@ Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
 adds them with the demo's defaults and :func:`method_parameters` turns them into the
 validated parameter objects of :mod:`nitsche_dolfinx.parameters` before anything is
 computed. A bad value is reported under the flag that gave it (``--gamma0 0: ...``).
-:func:`add_run_arguments` adds ``--checkpoint-every`` and ``--restart``.
+:func:`add_run_arguments` adds ``--checkpoint-every`` and ``--restart``;
+:func:`add_terminal_arguments` the flags every demo has: ``--output-every``, ``--quiet``
+and ``--version``.
 
 :func:`one_line_errors` stops a demo with one line naming the problem, never a
 traceback, and an exit status that says what happened:
@@ -55,11 +57,14 @@ __all__ = [
     "add_method_arguments",
     "add_output_every_argument",
     "add_run_arguments",
+    "add_terminal_arguments",
+    "add_version_argument",
     "check_output_folder",
     "finite_float",
     "method_parameters",
     "one_line_errors",
     "petsc_option",
+    "version_text",
 ]
 
 #: Flags whose destination is not the parameter's name.
@@ -170,6 +175,46 @@ def add_output_every_argument(parser: argparse.ArgumentParser, default: int = 10
         default=default,
         help="write solution.xdmf every this many steps (0: never)",
     )
+
+
+def version_text(prog: str) -> str:
+    """``prog`` with the versions of nitsche-dolfinx and of the dolfinx it runs on."""
+    import dolfinx
+
+    from . import __version__
+
+    versions = f"nitsche-dolfinx {__version__} (dolfinx {dolfinx.__version__})"
+    return versions if prog == "nitsche-dolfinx" else f"{prog}, {versions}"
+
+
+class _Version(argparse.Action):
+    """``--version``: print :func:`version_text` on rank 0 and exit (dolfinx is imported
+    only then)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if MPI.COMM_WORLD.rank == 0:
+            print(version_text(parser.prog), flush=True)
+        parser.exit()
+
+
+def add_version_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--version``."""
+    parser.add_argument(
+        "--version", action=_Version, help="print the versions of the package and dolfinx"
+    )
+
+
+def add_terminal_arguments(parser: argparse.ArgumentParser, output_every: int = 10) -> None:
+    """Add the flags of every demo (docs/method.md section 6): ``--output-every N`` (the
+    fields every N steps, 0: never), ``--quiet`` (no progress) and ``--version``."""
+    add_output_every_argument(parser, output_every)
+    parser.add_argument(
+        "--quiet", action="store_true", help="no progress on the terminal (bar or line per step)"
+    )
+    add_version_argument(parser)
 
 
 def method_parameters(args: argparse.Namespace) -> MethodParameters:

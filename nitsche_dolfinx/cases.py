@@ -11,6 +11,7 @@ from .meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mes
 from .model import ContactProblem
 from .obstacles import PlaneObstacle
 from .simulation import Simulation
+from .valueforms import PolynomialField
 
 __all__ = [
     "BAR_COLUMNS",
@@ -191,13 +192,15 @@ def block_problem(
     )
     problem.add_obstacle(PlaneObstacle(point=[0.0, 0.0], normal=[0.0, 1.0]), BLOCK_CONTACT)
     problem.add_body_force([rho * gravity * slope, -rho * gravity])
+    # u_y = -sag (H y - y^2 / 2) as the polynomial form of a TOML configuration
+    # (valueforms.PolynomialField), so that demos/friction_block_2d.toml is this to the bit
     sag = rho * gravity / E
-    problem.set_initial_conditions(
-        displacement=lambda x: np.vstack(
-            [np.zeros(x.shape[1]), -sag * (height * x[1] - x[1] ** 2 / 2)]
-        ),
-        velocity=[v0, 0.0],
+    displacement = PolynomialField(
+        2,
+        gradient=[[0.0, 0.0], [0.0, -sag * height]],
+        hessian=[np.zeros((2, 2)), np.diag([0, sag])],
     )
+    problem.set_initial_conditions(displacement=displacement, velocity=[v0, 0.0])
     return problem
 
 

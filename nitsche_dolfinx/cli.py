@@ -1,4 +1,6 @@
-"""The command line: ``nitsche-dolfinx run CONFIG.toml`` (also under ``mpirun``).
+"""The command line: ``nitsche-dolfinx run CONFIG.toml`` (also under ``mpirun``), and
+``nitsche-dolfinx schema`` (or ``--help-config``), which prints every key of a
+configuration with its kind, default and meaning.
 
 A bad configuration stops the run before anything is computed, with one line
 on rank 0 that names the problem and a non-zero exit status, never a traceback.
@@ -19,17 +21,34 @@ __all__ = ["main"]
 
 def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
     """The command's parser and that of ``run`` (whose flags name parameters)."""
+    from .arguments import add_version_argument, petsc_option
+
     parser = argparse.ArgumentParser(
         prog="nitsche-dolfinx",
         description="Dynamic contact in elastodynamics by Nitsche's method (FEniCSx).",
     )
-    commands = parser.add_subparsers(dest="command", required=True)
+    add_version_argument(parser)
+    parser.add_argument(
+        "--help-config",
+        action="store_true",
+        help="print every key of a TOML configuration (as the schema command) and exit",
+    )
+    commands = parser.add_subparsers(dest="command")
     run = commands.add_parser("run", help="run the simulation a TOML file describes")
-    run.add_argument("config", help="the TOML configuration (see nitsche_dolfinx.config)")
+    commands.add_parser("schema", help="print every key of a TOML configuration and exit")
+    add_version_argument(run)
+    run.add_argument("config", help="the TOML configuration (keys: nitsche-dolfinx schema)")
     run.add_argument("--out", help="output folder (overrides [output] dir)")
-    run.add_argument("--quiet", action="store_true", help="no progress line per step")
+    run.add_argument("--quiet", action="store_true", help="no progress on the terminal")
     run.add_argument(
         "--check", action="store_true", help="validate the configuration and the mesh, then stop"
+    )
+    run.add_argument(
+        "--output-every",
+        type=int,
+        default=None,
+        metavar="N",
+        help="write the fields every N steps (overrides [output] every; 0: never)",
     )
     run.add_argument(
         "--checkpoint-every",
@@ -44,6 +63,10 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
         action="store_true",
         help="continue from the checkpoint in OUT/checkpoint",
     )
+    run.add_argument(
+        "--petsc", type=petsc_option, action="append", default=[], metavar="KEY=VALUE",
+        help="a PETSc option of the step's solver (repeatable; wins over [petsc])",
+    )  # fmt: skip
     return parser, run
 
 
@@ -51,21 +74,37 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``nitsche-dolfinx`` console script."""
     parser, run_parser = _parser()
     args = parser.parse_args(argv)
+    if args.help_config or args.command == "schema":
+        from .schema import describe
+
+        print(describe())
+        return 0
+    if args.command is None:
+        parser.error("choose a command: run or schema")
+    return _run(args, run_parser)
+
+
+def _run(args: argparse.Namespace, run_parser: argparse.ArgumentParser) -> int:
     from mpi4py import MPI
 
     from .arguments import check_output_folder, one_line_errors
-    from .config import build_simulation, load_config, output_parameters
+    from .config import build_simulation, history_columns, load_config, output_parameters
     from .parameters import OutputParameters
 
     comm = MPI.COMM_WORLD
     with one_line_errors("nitsche-dolfinx", comm, flags=run_parser):
         config = load_config(args.config)
-        # [output] named as in the TOML file, then --checkpoint-every as a flag
-        overridden = args.checkpoint_every is not None
-        output = output_parameters(config, args.config, 0 if overridden else None)
-        if overridden:
-            output = OutputParameters(output.output_every, args.checkpoint_every)
-        out = args.out or config.get("output", {}).get("dir") or os.path.join("out", "run")
+        if args.petsc:
+            config["petsc"] = {**config.get("petsc", {}), **dict(args.petsc)}
+        # [output] named as in the TOML file, then the flags named as flags
+        output = output_parameters(config, args.config)
+        flags = (args.output_every, args.checkpoint_every)
+        if flags != (None, None):
+            output = OutputParameters(
+                output.output_every if flags[0] is None else flags[0],
+                output.checkpoint_every if flags[1] is None else flags[1],
+            )
+        out = args.out or config["output"]["dir"]
         if not args.check:
             check_output_folder(out, comm)
         simulation = build_simulation(
@@ -77,12 +116,15 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         simulation.run(
             out=out,
+            columns=history_columns(config, simulation),
             output_every=output.output_every,
             checkpoint_every=output.checkpoint_every,
             restart=args.restart,
         )
     if comm.rank == 0 and not args.quiet:
         print(f"history: {os.path.join(out, 'history.csv')}")
+        if output.output_every > 0:
+            print(f"fields: {os.path.join(out, 'solution.xdmf')}")
     return 0
 
 

@@ -1,137 +1,86 @@
-"""Run descriptions in TOML: the schema, its validation, and the simulation they describe.
+"""Run descriptions in TOML: reading, checking, and the simulation they describe.
 
-A configuration names the mesh, the material, the obstacles, the loads, the
-Nitsche settings, the time scheme and the output::
+A configuration names the mesh (a file, or one of the library's generated meshes), the
+material, the contact terms, the time scheme, the obstacles and contact pairs, the
+loads, the initial values, the history columns and the output::
 
     [mesh]
-    file = "ring_2d.msh"            # .msh or .xdmf, relative to the TOML file
+    file = "ring_2d.msh"            # relative to the TOML file; or generator = "disk"
     degree = 1
 
     [material]
     E = 1000.0                      # or lmbda and mu
     nu = 0.3
-    rho = 1.0
 
     [nitsche]
     gamma0 = 1e-6
-    gamma0_scaling = "absolute"     # gamma_h = gamma0 h; "E": gamma_h = gamma0 h / E
-    theta = 1.0                     # the variant Theta
+    friction = 0.2                  # Coulomb; method = "penalty" or "mixed" also
 
     [scheme]
     name = "hybrid"                 # hybrid | theta | newmark | cn
     dt = 0.005
     t_end = 1.0
-    max_step_cuts = 5               # a failing step is halved down to dt / 2^5
 
     [[obstacle]]
-    type = "plane"
+    type = "plane"                  # or circle, sphere, cylinder
     point = [0.0, 0.0]
     normal = [0.0, 1.0]
     tag = 1
 
-    [[contact_pair]]                # two bodies of the mesh (docs/method.md section 11)
-    tags = [3, 4]
-    variant = "unbiased"            # or "biased": the first tag is the slave
-    direction = [0.0, -1.0]         # optional: pair along it, from the first to the second
-
     [body_force]
-    value = [0.0, -9.81]
+    value = [[0.0, 0.0, 0.0], [1.0, 0.0, -1.0]]   # [[t, f...], ...]: linear in t
 
     [initial]
     velocity = [0.0, -1.0]
 
     [output]
-    dir = "out/ring"
     every = 10
-    checkpoint_every = 0            # save the state every K steps (0: only on a failure/stop)
 
-Everything is checked before anything is computed: an unknown key, a value of
-the wrong type or a missing required key raises :class:`ConfigError` with a
-message naming it; :func:`build_simulation` checks the values (material,
-scheme, time step, Nitsche parameter, obstacles) before it reads the mesh.
+Every key, its kind, its default and its meaning: :data:`nitsche_dolfinx.schema.SCHEMA`,
+printed by ``nitsche-dolfinx schema``. No value is ever evaluated as code: values in time
+and in space are small tables (:mod:`nitsche_dolfinx.valueforms`).
+
+Everything is checked before anything is computed: :func:`validate` checks the kinds,
+the forms and the keys each choice takes; :func:`build_simulation` checks the values
+(material, scheme, time step, Nitsche parameter, obstacles) before it makes or reads
+the mesh, then the tags and dimensions against the mesh. A bad value raises
+:class:`ConfigError` naming it as ``[table] key = value``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
 import os
-from typing import Any
+
+from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
+from .schema import KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, REQUIRED, SCHEMA
+from .valueforms import check_field_value, check_time_value
 
 __all__ = [
     "ConfigError",
     "SCHEMA",
     "build_simulation",
+    "history_columns",
     "load_config",
     "output_parameters",
     "validate",
 ]
+
+#: Fields written over a run when ``[output] every`` is not given (about this many).
+DEFAULT_FIELD_OUTPUTS = 50
 
 
 class ConfigError(ValueError):
     """A configuration file is invalid; the message names the file and the key."""
 
 
-_NUMBER = (int, float)
-_VECTOR = "vector"  # a list of numbers
-_TAG_PAIR = "tag pair"  # a list of two integers
-
-#: For each table: key -> (expected type, required). Arrays of tables are lists.
-SCHEMA: dict[str, Any] = {
-    "mesh": {"file": (str, True), "degree": (int, False), "gdim": (int, False)},
-    "material": {
-        "E": (_NUMBER, False),
-        "nu": (_NUMBER, False),
-        "lmbda": (_NUMBER, False),
-        "mu": (_NUMBER, False),
-        "rho": (_NUMBER, False),
-    },
-    "nitsche": {
-        "gamma0": (_NUMBER, False),
-        "gamma0_scaling": (str, False),
-        "theta": (_NUMBER, False),
-    },
-    "scheme": {
-        "name": (str, False),
-        "dt": (_NUMBER, True),
-        "t_end": (_NUMBER, True),
-        "theta": (_NUMBER, False),
-        "beta": (_NUMBER, False),
-        "gamma": (_NUMBER, False),
-        "max_step_cuts": (int, False),
-    },
-    "obstacle": [
-        {
-            "type": (str, False),
-            "point": (_VECTOR, True),
-            "normal": (_VECTOR, True),
-            "tag": (int, True),
-        }
-    ],
-    "contact_pair": [
-        {"tags": (_TAG_PAIR, True), "variant": (str, False), "direction": (_VECTOR, False)}
-    ],
-    "dirichlet": [{"tag": (int, True), "value": (_VECTOR, True)}],
-    "traction": [{"tag": (int, True), "value": (_VECTOR, True)}],
-    "body_force": {"value": (_VECTOR, True)},
-    "initial": {"displacement": (_VECTOR, False), "velocity": (_VECTOR, False)},
-    "output": {"dir": (str, False), "every": (int, False), "checkpoint_every": (int, False)},
-    "petsc": None,  # free-form PETSc options
-}
-_REQUIRED_TABLES = ("mesh", "material", "scheme")
-_TYPE_NAMES = {
-    str: "a string",
-    int: "an integer",
-    _NUMBER: "a number",
-    _VECTOR: "a list of numbers",
-    _TAG_PAIR: "a list of two integer tags",
-}
-
-
 def load_config(path: str) -> dict:
     """Read and validate a TOML configuration.
 
-    Relative file names in it (the mesh, the output folder) are taken relative to
-    the folder of the TOML file.
+    Relative file names in it (the mesh, the output folder) are taken relative to the
+    folder of the TOML file; without ``[output] dir`` the output folder is
+    ``out/<name of the TOML file>`` there.
 
     Raises:
         ConfigError: The file is missing, is not TOML, or is invalid.
@@ -149,14 +98,16 @@ def load_config(path: str) -> dict:
         raise ConfigError(f"{path}: not valid TOML: {error}") from None
     validate(config, path)
     base = os.path.dirname(os.path.abspath(path))
-    config["mesh"]["file"] = os.path.join(base, config["mesh"]["file"])
-    if "dir" in config.get("output", {}):
-        config["output"]["dir"] = os.path.join(base, config["output"]["dir"])
-    mesh_file = config["mesh"]["file"]
-    if os.path.isdir(mesh_file):
-        raise ConfigError(f"{path}: [mesh] file {mesh_file!r} is a folder, not a mesh file")
-    if not os.path.isfile(mesh_file):
-        raise ConfigError(f"{path}: [mesh] file {mesh_file!r} does not exist")
+    output = config.setdefault("output", {})
+    stem = os.path.splitext(os.path.basename(path))[0]
+    output["dir"] = os.path.join(base, output.get("dir", os.path.join("out", stem)))
+    mesh_file = config["mesh"].get("file")
+    if mesh_file is not None:
+        mesh_file = config["mesh"]["file"] = os.path.join(base, mesh_file)
+        if os.path.isdir(mesh_file):
+            raise ConfigError(f"{path}: [mesh] file {mesh_file!r} is a folder, not a mesh file")
+        if not os.path.isfile(mesh_file):
+            raise ConfigError(f"{path}: [mesh] file {mesh_file!r} does not exist")
     return config
 
 
@@ -171,44 +122,90 @@ def _toml_module():
     return tomllib
 
 
+def _shown(value) -> str:
+    return repr(value)
+
+
+def setting(config: dict, table: str, key: str, item: dict | None = None):
+    """``[table] key`` of ``config`` (of ``item``, one of the tables ``[[table]]``), or its
+    default in :data:`SCHEMA` (None: not set)."""
+    default = SCHEMA[table].keys[key].default
+    values = item if item is not None else config.get(table, {})
+    return values.get(key, None if default is REQUIRED else default)
+
+
+def bad(source: str, where: str, key: str, value, requirement: str) -> ConfigError:
+    """The error of ``[table] key = value``: ``requirement``."""
+    return ConfigError(f"{source}: {where} {key} = {_shown(value)}: {requirement}")
+
+
+# -- the checks before anything is read or computed ------------------------------------
+
+
 def validate(config: dict, source: str = "config") -> None:
-    """Check ``config`` against :data:`SCHEMA`; raise :class:`ConfigError` on the first problem."""
+    """Check ``config`` against :data:`~nitsche_dolfinx.schema.SCHEMA` and the forms of its
+    values; raise :class:`ConfigError` on the first problem."""
     for table in config:
         if table not in SCHEMA:
             raise ConfigError(
                 f"{source}: unknown table [{table}] (known: {', '.join(sorted(SCHEMA))})"
             )
-    for table in _REQUIRED_TABLES:
-        if table not in config:
-            raise ConfigError(f"{source}: missing required table [{table}]")
-    for table, schema in SCHEMA.items():
-        if table not in config or schema is None:
+    for name, table in SCHEMA.items():
+        if name not in config:
+            if table.required:
+                raise ConfigError(f"{source}: missing required table [{name}]")
             continue
-        value = config[table]
-        if isinstance(schema, list):
+        value = config[name]
+        if table.array:
             if not isinstance(value, list):
-                raise ConfigError(f"{source}: [[{table}]] must be an array of tables")
+                raise ConfigError(f"{source}: [[{name}]] must be an array of tables")
             for index, item in enumerate(value):
-                _check_table(item, schema[0], f"{source}: [[{table}]] #{index + 1}")
+                _check_table(item, table, f"{source}: [[{name}]] #{index + 1}")
+        elif table.free:
+            _check_petsc(value, source)
         else:
-            _check_table(value, schema, f"{source}: [{table}]")
-    _check_petsc(config.get("petsc", {}), source)
-    material = config["material"]
-    if not ({"E", "nu"} <= material.keys() or {"lmbda", "mu"} <= material.keys()):
-        raise ConfigError(f"{source}: [material] needs E and nu, or lmbda and mu")
-    both = sorted(material.keys() & {"E", "nu"}), sorted(material.keys() & {"lmbda", "mu"})
-    if both[0] and both[1]:
-        raise ConfigError(
-            f"{source}: [material] gives {' and '.join(both[0])} with {' and '.join(both[1])}: "
-            "give E and nu, or lmbda and mu"
-        )
+            _check_table(value, table, f"{source}: [{name}]")
+    _check_material(config["material"], source)
     _check_scheme_keys(config["scheme"], source)
+    _check_mesh(config["mesh"], source)
     for index, obstacle in enumerate(config.get("obstacle", [])):
-        kind = obstacle.get("type", "plane")
-        if kind != "plane":
+        _check_obstacle(obstacle, f"[[obstacle]] #{index + 1}", source)
+    _check_values(config, source)
+    _check_probes(config.get("probe", []), source)
+    if config.get("body") and "velocity" in config.get("initial", {}):
+        raise ConfigError(
+            f"{source}: [initial] velocity is given with [[body]] velocities: give one of them"
+        )
+    columns = config.get("output", {}).get("columns")
+    if columns is not None and (not columns or len(set(columns)) != len(columns)):
+        raise bad(source, "[output]", "columns", columns, "must be distinct names, at least one")
+
+
+#: Keys whose choices the parameter objects check, in their own words, before the mesh.
+_OWN_CHOICES = ("name", "method", "gamma0_scaling", "mass")
+
+
+def _check_table(table, spec, where: str) -> None:
+    if not isinstance(table, dict):
+        raise ConfigError(f"{where} must be a table")
+    for key, value in table.items():
+        if key not in spec.keys:
+            raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(spec.keys)})")
+        key_spec = spec.keys[key]
+        name, check = KINDS[key_spec.kind]
+        if not check(value):
+            raise ConfigError(f"{where} {key} must be {name}, got {value!r}")
+        if key_spec.kind in ("number", "vector"):
+            numbers = value if isinstance(value, list) else [value]
+            if not all(math.isfinite(x) for x in numbers):
+                raise ConfigError(f"{where} {key} = {_shown(value)}: must be finite")
+        if key_spec.choices and value not in key_spec.choices and key not in _OWN_CHOICES:
             raise ConfigError(
-                f"{source}: [[obstacle]] #{index + 1} type {kind!r} is not known (use 'plane')"
+                f"{where} {key} = {value!r}: unknown; choose one of {', '.join(key_spec.choices)}"
             )
+    for key, key_spec in spec.keys.items():
+        if key_spec.required and key not in table:
+            raise ConfigError(f"{where} missing required key {key!r}")
 
 
 def _check_petsc(petsc, source: str) -> None:
@@ -223,11 +220,22 @@ def _check_petsc(petsc, source: str) -> None:
             )
 
 
+def _check_material(material: dict, source: str) -> None:
+    if not ({"E", "nu"} <= material.keys() or {"lmbda", "mu"} <= material.keys()):
+        raise ConfigError(f"{source}: [material] needs E and nu, or lmbda and mu")
+    both = sorted(material.keys() & {"E", "nu"}), sorted(material.keys() & {"lmbda", "mu"})
+    if both[0] and both[1]:
+        raise ConfigError(
+            f"{source}: [material] gives {' and '.join(both[0])} with {' and '.join(both[1])}: "
+            "give E and nu, or lmbda and mu"
+        )
+
+
 def _check_scheme_keys(scheme: dict, source: str) -> None:
     """[scheme] theta, beta, gamma only for the scheme that takes them."""
     from .schemes import SCHEMES
 
-    name = scheme.get("name", "hybrid")
+    name = setting({"scheme": scheme}, "scheme", "name")
     if name not in SCHEMES:
         return  # named by the scheme's own check, with the table's label
     for key in ("theta", "beta", "gamma"):
@@ -238,43 +246,101 @@ def _check_scheme_keys(scheme: dict, source: str) -> None:
             )
 
 
-def _check_table(table, schema: dict, where: str) -> None:
-    if not isinstance(table, dict):
-        raise ConfigError(f"{where} must be a table")
-    for key, value in table.items():
-        if key not in schema:
-            raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(schema)})")
-        expected, _ = schema[key]
-        if not _has_type(value, expected):
-            raise ConfigError(f"{where} {key} must be {_TYPE_NAMES[expected]}, got {value!r}")
-    for key, (_, required) in schema.items():
-        if required and key not in table:
-            raise ConfigError(f"{where} missing required key {key!r}")
+def _check_mesh(mesh: dict, source: str) -> None:
+    """A file or a generator, and only the keys the generator takes, in their ranges."""
+    if ("file" in mesh) == ("generator" in mesh):
+        raise ConfigError(f"{source}: [mesh] needs one of file (a mesh file) and generator")
+    if "file" in mesh:
+        extra = [key for key in mesh if key in GENERATOR_KEYS]
+        if extra:
+            raise ConfigError(
+                f"{source}: [mesh] {extra[0]} = {mesh[extra[0]]!r} is a key of the generated "
+                "meshes, not of a mesh file"
+            )
+        return
+    name = mesh["generator"]
+    generator = MESH_GENERATORS[name]
+    if "gdim" in mesh:
+        raise bad(source, "[mesh]", "gdim", mesh["gdim"], "is a key of mesh files")
+    for key in GENERATOR_KEYS:
+        if key not in mesh:
+            continue
+        if key not in generator.keys:
+            raise bad(
+                source, "[mesh]", key, mesh[key],
+                f"not a key of the {name!r} mesh (it takes {', '.join(generator.keys)})",
+            )  # fmt: skip
+        _, _, check, requirement = GENERATOR_KEYS[key]
+        if not check(mesh[key]):
+            raise bad(source, "[mesh]", key, mesh[key], f"must be {requirement}")
+    center = mesh.get("center")
+    if center is not None:
+        dimension = len(generator.keys["center"])
+        if not isinstance(center, list) or len(center) != dimension:
+            raise bad(source, "[mesh]", "center", center, f"must have {dimension} coordinates")
 
 
-def _has_type(value, expected) -> bool:
-    if isinstance(value, bool):  # TOML booleans are not numbers
-        return False
-    if expected == _TAG_PAIR:
-        return (
-            isinstance(value, list)
-            and len(value) == 2
-            and all(isinstance(x, int) and not isinstance(x, bool) for x in value)
-        )
-    if expected == _VECTOR:
-        if isinstance(value, _NUMBER):
-            return True
-        return isinstance(value, list) and all(
-            isinstance(x, _NUMBER) and not isinstance(x, bool) for x in value
-        )
-    return isinstance(value, expected)
+def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
+    kind = setting({}, "obstacle", "type", obstacle)
+    keys, _ = OBSTACLE_TYPES[kind]
+    for key in obstacle:
+        if key not in ("type", "tag", *keys):
+            raise bad(
+                source, where, key, obstacle[key],
+                f"not a key of a {kind} obstacle (it takes {', '.join(keys)})",
+            )  # fmt: skip
+    for key in keys:
+        if key != "side" and key not in obstacle:
+            raise ConfigError(f"{source}: {where} missing required key {key!r} (type {kind!r})")
+    if "radius" in obstacle and not obstacle["radius"] > 0:
+        raise bad(source, where, "radius", obstacle["radius"], "must be positive")
 
+
+#: The values in time and in space: (table, key, checker).
+_VALUES = (
+    ("dirichlet", "value", check_time_value),
+    ("traction", "value", check_time_value),
+    ("body_force", "value", check_time_value),
+    ("initial", "displacement", check_field_value),
+    ("initial", "velocity", check_field_value),
+)
+
+
+def _check_values(config: dict, source: str) -> None:
+    for table, key, check in _VALUES:
+        items = config.get(table, [] if SCHEMA[table].array else {})
+        for index, item in enumerate(items if SCHEMA[table].array else [items]):
+            if key not in item:
+                continue
+            where = f"[[{table}]] #{index + 1}" if SCHEMA[table].array else f"[{table}]"
+            try:
+                check(item[key])
+            except ValueError as error:
+                raise bad(source, where, key, item[key], str(error)) from None
+
+
+def _check_probes(probes: list, source: str) -> None:
+    names = set()
+    for index, probe in enumerate(probes):
+        where = f"[[probe]] #{index + 1}"
+        if probe["name"] in names:
+            raise bad(source, where, "name", probe["name"], "a second probe of that name")
+        names.add(probe["name"])
+        if "facets" in probe and "cells" in probe:
+            raise ConfigError(f"{source}: {where} gives facets and cells: give one of them")
+        if "component" in probe and not PROBE_QUANTITIES[probe["quantity"]]:
+            raise bad(source, where, "component", probe["component"], "the quantity is scalar")
+
+
+# -- the checks of values, named where they came from ----------------------------------
 
 #: Where each parameter of :mod:`nitsche_dolfinx.parameters` is set in a configuration.
 _KEYS = {
     "gamma0": "[nitsche] gamma0",
     "gamma0_scaling": "[nitsche] gamma0_scaling",
     "nitsche_theta": "[nitsche] theta",
+    "friction": "[nitsche] friction",
+    "method": "[nitsche] method",
     "scheme": "[scheme] name",
     "dt": "[scheme] dt",
     "t_end": "[scheme] t_end",
@@ -283,6 +349,9 @@ _KEYS = {
     "beta": "[scheme] beta",
     "gamma": "[scheme] gamma",
     "degree": "[mesh] degree",
+    "mass": "[mesh] mass",
+    "quadrature_degree": "[mesh] quadrature_degree",
+    "linear_solver": "[solver] linear_solver",
     "output_every": "[output] every",
     "checkpoint_every": "[output] checkpoint_every",
     "initial displacement": "[initial] displacement",
@@ -292,7 +361,7 @@ _KEYS = {
 
 
 @contextlib.contextmanager
-def _reported_at(where: str, source: str):
+def reported_at(where: str, source: str):
     """Turn a ValueError of the block into a :class:`ConfigError` naming the table (and,
     for a :class:`~nitsche_dolfinx.parameters.ParameterError`, the key and value)."""
     from .parameters import ParameterError
@@ -312,116 +381,42 @@ def _reported_at(where: str, source: str):
 
 def output_parameters(config: dict, source: str = "config", checkpoint_every=None):
     """The :class:`~nitsche_dolfinx.parameters.OutputParameters` of ``[output]``
-    (``checkpoint_every`` given: it overrides the table's)."""
-    from .parameters import OutputParameters
+    (``checkpoint_every`` given: it overrides the table's). Without ``[output] every``,
+    the fields are written about :data:`DEFAULT_FIELD_OUTPUTS` times over the run."""
+    from .parameters import OutputParameters, TimeStepping
 
     output = config.get("output", {})
     if checkpoint_every is None:
-        checkpoint_every = output.get("checkpoint_every", 0)
-    with _reported_at("[output]", source):
-        return OutputParameters(output.get("every", 0), checkpoint_every)
+        checkpoint_every = setting(config, "output", "checkpoint_every")
+    every = output.get("every")
+    if every is None:
+        scheme = config["scheme"]
+        with reported_at("[scheme]", source):
+            steps = TimeStepping(scheme["dt"], scheme["t_end"]).num_steps
+        every = max(1, math.ceil(steps / DEFAULT_FIELD_OUTPUTS))
+    with reported_at("[output]", source):
+        return OutputParameters(every, checkpoint_every)
 
 
 def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
-    """The :class:`~nitsche_dolfinx.simulation.Simulation` a validated configuration describes.
-
-    Every value is checked by the parameter objects of :mod:`nitsche_dolfinx.parameters`
-    before the mesh is read.
-
-    Args:
-        config: A configuration checked by :func:`validate` (e.g. from :func:`load_config`).
-        comm: The communicator (``MPI.COMM_WORLD`` by default).
-        progress: Print one line per step on rank 0.
-        source: Name of the configuration in error messages (its file name).
+    """The :class:`~nitsche_dolfinx.simulation.Simulation` a validated configuration
+    describes, its probes added (see :func:`nitsche_dolfinx.builder.build_simulation`).
 
     Raises:
         ConfigError: A value is out of range or names a tag absent from the mesh.
     """
-    from mpi4py import MPI
+    from .builder import build_simulation as build
 
-    from .meshes import load_mesh
-    from .model import ContactProblem
-    from .parameters import Discretisation, NitscheParameters, TimeStepping
-    from .schemes import make_scheme
-    from .simulation import Simulation
-
-    comm = comm or MPI.COMM_WORLD
-    # the values first, the mesh last: a bad value stops the run before any reading
-    material = _material(config, source)
-    s, nitsche, mesh_table = config["scheme"], config.get("nitsche", {}), config["mesh"]
-    with _reported_at("[scheme]", source):
-        scheme = make_scheme(
-            s.get("name", "hybrid"), s.get("theta", 1.0), s.get("beta", 0.25), s.get("gamma", 0.5)
-        )
-        time_stepping = TimeStepping(s["dt"], s["t_end"], s.get("max_step_cuts", 5))
-    with _reported_at("[nitsche]", source):
-        contact = NitscheParameters(
-            nitsche.get("gamma0", 1e-3),
-            nitsche.get("theta", 1.0),
-            gamma0_scaling=nitsche.get("gamma0_scaling", "absolute"),
-        )
-    with _reported_at("[mesh]", source):
-        discretisation = Discretisation(mesh_table.get("degree", 1))
-    obstacles = _obstacles(config, source)
-    output_parameters(config, source)
-    with _reported_at("[mesh]", source):
-        mesh, facet_tags = load_mesh(mesh_table["file"], gdim=mesh_table.get("gdim"), comm=comm)
-    problem = ContactProblem(mesh, facet_tags, material, **vars(contact), **vars(discretisation))
-    _add_terms(problem, config, obstacles, source)
-    with _reported_at("[scheme]", source):
-        return Simulation(
-            problem,
-            scheme,
-            time_stepping.dt,
-            time_stepping.t_end,
-            petsc_options=config.get("petsc"),
-            progress=progress,
-            max_step_cuts=time_stepping.max_step_cuts,
-        )
+    return build(config, comm, progress, source)
 
 
-def _material(config: dict, source: str):
-    from .material import Material
+def history_columns(config: dict, simulation) -> list[str]:
+    """The columns of ``history.csv``: ``[output] columns``, or those of the 2D/3D demos
+    (with the energy balance under friction) and then the probes."""
+    from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
 
-    m = config["material"]
-    rho = m.get("rho", 1.0)
-    with _reported_at("[material]", source):
-        if "E" in m:
-            return Material(E=m["E"], nu=m["nu"], rho=rho)
-        return Material.from_lame(m["lmbda"], m["mu"], rho=rho)
-
-
-def _obstacles(config: dict, source: str) -> list:
-    from .obstacles import PlaneObstacle
-
-    obstacles = []
-    for index, obstacle in enumerate(config.get("obstacle", [])):
-        with _reported_at(f"[[obstacle]] #{index + 1}", source):
-            obstacles.append(PlaneObstacle(obstacle["point"], obstacle["normal"]))
-    return obstacles
-
-
-def _add_terms(problem, config: dict, obstacles: list, source: str) -> None:
-    """The obstacles, Dirichlet conditions, loads and initial conditions of ``config``."""
-    for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
-        with _reported_at(f"[[obstacle]] #{index + 1}", source):
-            problem.add_obstacle(obstacle, table["tag"])
-    for index, pair in enumerate(config.get("contact_pair", [])):
-        with _reported_at(f"[[contact_pair]] #{index + 1}", source):
-            problem.add_contact_pair(
-                *pair["tags"], pair.get("variant", "unbiased"), pair.get("direction")
-            )
-    for index, dirichlet in enumerate(config.get("dirichlet", [])):
-        with _reported_at(f"[[dirichlet]] #{index + 1}", source):
-            problem.add_dirichlet(dirichlet["tag"], dirichlet["value"])
-    for index, traction in enumerate(config.get("traction", [])):
-        with _reported_at(f"[[traction]] #{index + 1}", source):
-            problem.add_traction(traction["tag"], traction["value"])
-    if "body_force" in config:
-        with _reported_at("[body_force]", source):
-            problem.add_body_force(config["body_force"]["value"])
-    initial = config.get("initial", {})
-    with _reported_at("[initial]", source):
-        problem.set_initial_conditions(
-            displacement=initial.get("displacement"), velocity=initial.get("velocity")
-        )
+    columns = config.get("output", {}).get("columns")
+    if columns is not None:
+        return list(columns)
+    base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
+    return [*base, *(probe["name"] for probe in config.get("probe", []))]

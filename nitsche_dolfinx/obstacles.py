@@ -13,7 +13,13 @@ import numpy as np
 import ufl
 from dolfinx import fem
 
-__all__ = ["Obstacle", "PlaneObstacle", "SignedDistanceObstacle"]
+__all__ = [
+    "CylinderObstacle",
+    "Obstacle",
+    "PlaneObstacle",
+    "SignedDistanceObstacle",
+    "SphereObstacle",
+]
 
 
 class Obstacle:
@@ -87,3 +93,126 @@ class SignedDistanceObstacle(Obstacle):
 
     def distance(self, x):
         return self._distance(x)
+
+
+def _finite_vector(value, what: str) -> np.ndarray:
+    array = np.asarray(value, dtype=float).reshape(-1)
+    if array.size == 0 or not np.all(np.isfinite(array)):
+        raise ValueError(f"{what} must be finite, got {array.tolist()}")
+    return array
+
+
+def _check_radius(radius: float, side: str) -> float:
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"the radius must be positive, got {radius!r}")
+    if side not in ("outside", "inside"):
+        raise ValueError(f"side must be 'outside' or 'inside', got {side!r}")
+    return float(radius)
+
+
+def _constants(obstacle, x, *values) -> tuple:
+    """``values`` as fem.Constants on the mesh of ``x``, made once per obstacle and mesh
+    (the gap and the normal share them)."""
+    domain = x.ufl_domain()
+    cached = obstacle.__dict__.get("_constants")
+    if cached is None or cached[0] is not domain:
+        cached = obstacle._constants = (domain, tuple(fem.Constant(domain, v) for v in values))
+    return cached[1]
+
+
+def _check_dimension(array: np.ndarray, x, what: str) -> None:
+    if array.size != x.ufl_shape[0]:
+        raise ValueError(
+            f"{what} {array.tolist()} has {array.size} coordinates, the mesh has {x.ufl_shape[0]}"
+        )
+
+
+class SphereObstacle(Obstacle):
+    """A rigid sphere (a circle in 2D) of ``radius`` around ``center``.
+
+    Args:
+        center: The centre, of the mesh's dimension.
+        radius: The radius (> 0).
+        side: Where the body is: ``"outside"`` (a rigid ball, d = |x - c| - R) or
+            ``"inside"`` (a spherical cavity, d = R - |x - c|).
+    """
+
+    def __init__(self, center: Sequence[float], radius: float, side: str = "outside"):
+        self.center = _finite_vector(center, "the sphere's centre")
+        self.radius = _check_radius(radius, side)
+        self.side = side
+
+    def _radial(self, x):
+        """x - c, and the radius, with the centre and the radius as constants (another
+        sphere compiles no new form)."""
+        _check_dimension(self.center, x, "the sphere's centre")
+        center, radius = _constants(self, x, self.center, self.radius)
+        return x - center, radius
+
+    def distance(self, x):
+        r, radius = self._radial(x)
+        d = ufl.sqrt(ufl.dot(r, r)) - radius
+        return d if self.side == "outside" else -d
+
+    def normal(self, x):
+        # -grad d / |grad d| written out: the radius, a constant that the gradient drops,
+        # would be left out of the compiled expression's constants (FFCx 0.5)
+        r, _ = self._radial(x)
+        unit = r / ufl.sqrt(ufl.dot(r, r))
+        return -unit if self.side == "outside" else unit
+
+    def __repr__(self):
+        return (
+            f"SphereObstacle(center={self.center.tolist()}, radius={self.radius!r}, "
+            f"side={self.side!r})"
+        )
+
+
+class CylinderObstacle(Obstacle):
+    """A rigid circular cylinder in 3D: the points at ``radius`` from the axis through
+    ``point`` along ``axis``.
+
+    Args:
+        point: A point of the axis (3 coordinates).
+        axis: The direction of the axis (any non-zero length).
+        radius: The radius (> 0).
+        side: Where the body is: ``"outside"`` (a rigid pillar) or ``"inside"`` (a pipe).
+    """
+
+    def __init__(
+        self, point: Sequence[float], axis: Sequence[float], radius: float, side: str = "outside"
+    ):
+        self.point = _finite_vector(point, "the cylinder's point")
+        axis = _finite_vector(axis, "the cylinder's axis")
+        length = float(np.linalg.norm(axis))
+        if length == 0.0 or axis.size != self.point.size:
+            raise ValueError(
+                f"the cylinder's axis {axis.tolist()} must be non-zero, with as many "
+                f"coordinates as its point {self.point.tolist()}"
+            )
+        self.axis = axis / length
+        self.radius = _check_radius(radius, side)
+        self.side = side
+
+    def _radial(self, x):
+        """The component of x - point normal to the axis, and the radius (constants)."""
+        _check_dimension(self.point, x, "the cylinder's point")
+        point, radius, axis = _constants(self, x, self.point, self.radius, self.axis)
+        r = x - point
+        return r - ufl.dot(r, axis) * axis, radius
+
+    def distance(self, x):
+        radial, radius = self._radial(x)
+        d = ufl.sqrt(ufl.dot(radial, radial)) - radius
+        return d if self.side == "outside" else -d
+
+    def normal(self, x):
+        radial, _ = self._radial(x)  # as the sphere's: -grad d / |grad d| written out
+        unit = radial / ufl.sqrt(ufl.dot(radial, radial))
+        return -unit if self.side == "outside" else unit
+
+    def __repr__(self):
+        return (
+            f"CylinderObstacle(point={self.point.tolist()}, axis={self.axis.tolist()}, "
+            f"radius={self.radius!r}, side={self.side!r})"
+        )

@@ -32,6 +32,7 @@ from .linear_solvers import linear_solver as linear_solver_preset
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .parameters import OutputParameters, TimeStepping
+from .progress import Progress
 from .schemes import TimeScheme
 from .solver import SolverError, rigid_body_modes
 from .stepper import NitscheStepper, Stepper
@@ -54,7 +55,8 @@ class Simulation:
             the last step is shorter.
         petsc_options: PETSc options for the step's SNES
             (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
-        progress: Print one line per step on rank 0.
+        progress: Show the progress on rank 0: one bar on a terminal (with tqdm), else one
+            line per step (:class:`~nitsche_dolfinx.progress.Progress`).
         reuse_jacobian: Assemble the constant bulk Jacobian once and re-factorise only
             when the contact part of the Jacobian changes (the default); False
             re-assembles and re-factorises at every Newton iteration.
@@ -262,6 +264,7 @@ class _Run:
         self.history = History()
         self.writer: HistoryWriter | None = None
         self.fields: SolutionWriter | None = None
+        self.progress: Progress | None = None
 
     def open(self, restart) -> None:
         """Load the checkpoint to restart from, if any, and open the output files."""
@@ -280,6 +283,7 @@ class _Run:
                 print(f"restart: from {source}, step {saved.step}, t = {saved.t:.6g}", flush=True)
             if saved.changes:
                 self.log_changes(saved)
+        self.progress = Progress(sim.progress, self.comm, sim.t, sim.t_end)
         if self.out is None:
             return
         path = os.path.join(self.out, "history.csv")
@@ -349,20 +353,17 @@ class _Run:
         else:
             self.after_step(signals, callback)
             return
-        if sim.progress and self.comm.rank == 0:
-            print(
-                f"step to t = {t_target:.6g} failed ({failed.reason_name}): two steps of "
-                f"{(t_target - sim.t) / 2:.4g} instead",
-                flush=True,
-            )
+        self.progress.write(
+            f"step to t = {t_target:.6g} failed ({failed.reason_name}): two steps of "
+            f"{(t_target - sim.t) / 2:.4g} instead"
+        )
         if not self.warned_cut and self.comm.rank == 0:  # once per run, even when quiet
             hint = sim.problem.solver_hint()
             hint = f"; if this recurs, {hint}" if hint else ""
-            print(
+            self.progress.message(
                 f"note: Newton failed on the step to t = {t_target:.6g}; the step is cut in "
                 f"halves (history.csv column step_cuts){hint}",
                 file=sys.stderr,
-                flush=True,
             )
         self.warned_cut = True
         self.advance(sim.t + (t_target - sim.t) / 2, cuts + 1, signals, callback)
@@ -392,13 +393,7 @@ class _Run:
         if self.fields is not None and sim.step_index % self.output.output_every == 0:
             sim.stepper.before_output()
             self.fields.write(sim.t)
-        if sim.progress and self.comm.rank == 0:
-            print(
-                f"step {sim.step_index:5d}  t = {sim.t:9.4f}"
-                f"  newton = {values['newton_iterations']:2d}  E = {values['energy']: .10e}"
-                f"  contact force = {values['contact_force']:.4e}",
-                flush=True,
-            )
+        self.progress.record(sim.step_index, sim.t, values)
 
     def save_on_stop(self) -> SavedState | None:
         """The checkpoint of the last completed step when a run stops early, if it has a place."""
@@ -411,6 +406,8 @@ class _Run:
 
     def close(self, collective: bool) -> None:
         """Close the history; the fields too when every rank gets here (collective)."""
+        if self.progress is not None:
+            self.progress.close()
         if self.writer is not None:
             self.writer.close()
         if collective and self.fields is not None:

@@ -129,8 +129,14 @@ def test_api_refuses_bad_value(name):
 
 # -- the TOML configuration through the command line ----------------------------------------
 
+
+def curved(kind: str, keys: str) -> dict:
+    """The ring's ground replaced by an obstacle of type ``kind`` with ``keys``."""
+    return {'type = "plane"': f'type = "{kind}"', "point = [0.0, 0.0]\nnormal = [0.0, 1.0]": keys}
+
+
 TOML = {
-    "E-inf": ({"E = 1000.0": "E = inf"}, "E=inf"),
+    "E-inf": ({"E = 1000.0": "E = inf"}, "[material] E = inf: must be finite"),
     "E-and-lame": ({"rho = 1.0": "rho = 1.0\nlmbda = 3.0"}, "gives E and nu with lmbda"),
     "petsc-subtable": (
         {"[output]": "[petsc.snes]\nrtol = 1e-8\n\n[output]"},
@@ -146,7 +152,7 @@ TOML = {
     ),
     "nan-velocity": (
         {"velocity = [0.0, -1.0]": "velocity = [nan, -1.0]"},
-        "[initial] velocity = 'NaN or inf'",
+        "[initial] velocity = [nan, -1.0]: must be finite",
     ),
     "inside-obstacle": (
         {"point = [0.0, 0.0]": "point = [0.0, 0.5]"},
@@ -168,7 +174,7 @@ TOML = {
         "[scheme] max_step_cuts = -1",
     ),
     "unknown-table": ({"[output]": "[outputs]\nevery = 1\n\n[output]"}, "unknown table [outputs]"),
-    "unknown-key": ({"degree = 1": "degree = 1\norder = 2"}, "[mesh] unknown key 'order'"),
+    "unknown-key": ({"degree = 1": "degree = 1\nelements = 2"}, "[mesh] unknown key 'elements'"),
     "nu-half": (
         {"nu = 0.3": "nu = 0.5"},
         "[material] Poisson's ratio nu must lie in (-1, 1/2), got nu=0.5",
@@ -182,6 +188,163 @@ TOML = {
         {'"ring_2d.msh"': '"."'},
         "is a folder, not a mesh file",
     ),
+    # the contact method, the mass, the quadrature and the solver
+    "friction-negative": (
+        {"gamma0 = 1e-6": "gamma0 = 1e-6\nfriction = -0.2"},
+        "[nitsche] friction = -0.2",
+    ),
+    "method-unknown": (
+        {"gamma0 = 1e-6": 'gamma0 = 1e-6\nmethod = "lagrange"'},
+        "[nitsche] method = 'lagrange': unknown contact method; choose one of nitsche,",
+    ),
+    "mixed-with-friction": (
+        {"gamma0 = 1e-6": 'gamma0 = 1e-6\nmethod = "mixed"\nfriction = 0.1'},
+        "[nitsche] friction = 0.1: the mixed method is frictionless",
+    ),
+    "lumped-p2": (
+        {"degree = 1": 'degree = 2\nmass = "lumped"'},
+        "[mesh] mass = 'lumped': this mass needs P1 elements",
+    ),
+    "quadrature-negative": (
+        {"degree = 1": "degree = 1\nquadrature_degree = -1"},
+        "[mesh] quadrature_degree = -1",
+    ),
+    "linear-solver-unknown": (
+        {"[output]": '[solver]\nlinear_solver = "qr"\n\n[output]'},
+        "[solver] linear_solver = 'qr': unknown",
+    ),
+    "solver-not-boolean": (
+        {"[output]": "[solver]\nreuse_jacobian = 1\n\n[output]"},
+        "[solver] reuse_jacobian must be true or false, got 1",
+    ),
+    # generated meshes
+    "file-and-generator": (
+        {"degree = 1": 'degree = 1\ngenerator = "disk"'},
+        "[mesh] needs one of file (a mesh file) and generator",
+    ),
+    "generator-key-for-file": (
+        {"degree = 1": "degree = 1\norder = 2"},
+        "[mesh] order = 2 is a key of the generated meshes, not of a mesh file",
+    ),
+    "generator-unknown": (
+        {'file = "ring_2d.msh"': 'generator = "torus"'},
+        "[mesh] generator = 'torus': unknown; choose one of bar, block",
+    ),
+    "generator-foreign-key": (
+        {'file = "ring_2d.msh"': 'generator = "block"\nradius = 5.0'},
+        "[mesh] radius = 5.0: not a key of the 'block' mesh (it takes width, height, nx, ny)",
+    ),
+    "generator-nx-zero": (
+        {'file = "ring_2d.msh"': 'generator = "block"\nnx = 0'},
+        "[mesh] nx = 0: must be at least 1",
+    ),
+    "generator-center-3d": (
+        {'file = "ring_2d.msh"': 'generator = "disk"\ncenter = [0.0, 0.0, 20.0]'},
+        "[mesh] center = [0.0, 0.0, 20.0]: must have 2 coordinates",
+    ),
+    "generator-too-fine": (
+        {'file = "ring_2d.msh"': 'generator = "disk"\nmesh_size = 1e-6'},
+        "[mesh] mesh_size=1e-06 would make about",
+    ),
+    # curved obstacles
+    "sphere-in-2d": (
+        curved("sphere", "center = [0.0, -5.0]\nradius = 5.0"),
+        "[[obstacle]] #1 type = 'sphere': a sphere obstacle is 3D, the mesh is 2D",
+    ),
+    "circle-radius-negative": (
+        curved("circle", "center = [0.0, -5.0]\nradius = -1.0"),
+        "[[obstacle]] #1 radius = -1.0: must be positive",
+    ),
+    "circle-without-radius": (
+        curved("circle", "center = [0.0, -5.0]"),
+        "[[obstacle]] #1 missing required key 'radius' (type 'circle')",
+    ),
+    "plane-with-radius": (
+        {"normal = [0.0, 1.0]": "normal = [0.0, 1.0]\nradius = 5.0"},
+        "[[obstacle]] #1 radius = 5.0: not a key of a plane obstacle (it takes point, normal)",
+    ),
+    "circle-side-unknown": (
+        curved("circle", 'center = [0.0, -5.0]\nradius = 5.0\nside = "above"'),
+        "[[obstacle]] #1 side = 'above': unknown; choose one of outside, inside",
+    ),
+    "circle-center-3d": (
+        curved("circle", "center = [0.0, -5.0, 0.0]\nradius = 5.0"),
+        "[[obstacle]] #1 the sphere's centre [0.0, -5.0, 0.0] has 3 coordinates, the mesh has 2",
+    ),
+    # values in time and in space
+    "body-force-3d": (
+        {"value = [0.0, -1.0]": "value = [0.0, 0.0, -1.0]"},
+        "[body_force] value = [0.0, 0.0, -1.0]: has 3 components, the mesh is 2D",
+    ),
+    "load-times-decreasing": (
+        {"value = [0.0, -1.0]": "value = [[1.0, 0.0, -1.0], [0.5, 0.0, 0.0]]"},
+        "[body_force] value = [[1.0, 0.0, -1.0], [0.5, 0.0, 0.0]]: must have increasing times",
+    ),
+    "load-rows-ragged": (
+        {"value = [0.0, -1.0]": "value = [[0.0, 0.0, -1.0], [1.0, 0.0]]"},
+        "must have rows [t, value...] of one length",
+    ),
+    "load-text": (
+        {"value = [0.0, -1.0]": 'value = "-9.81 * t"'},
+        "[body_force] value must be a vector, a table [[t, value...], ...] or a profile",
+    ),
+    "profile-unknown": (
+        {"value = [0.0, -1.0]": 'value = { profile = "square", value = [0.0, -1.0] }'},
+        "needs profile = one of ramp, sine (got 'square')",
+    ),
+    "profile-duration-zero": (
+        {"value = [0.0, -1.0]": 'value = { profile = "ramp", value = [0, -1], duration = 0.0 }'},
+        "duration must be positive, got 0.0",
+    ),
+    "profile-missing-key": (
+        {"value = [0.0, -1.0]": 'value = { profile = "sine", amplitude = [0.0, -1.0] }'},
+        "misses 'frequency' (the 'sine' profile takes amplitude, frequency, phase)",
+    ),
+    "dirichlet-absent-tag": (
+        {"[output]": "[[dirichlet]]\ntag = 42\nvalue = [0.0, 0.0]\n\n[output]"},
+        "[[dirichlet]] #1 facet tag 42 is not in the mesh",
+    ),
+    "traction-2-components-1d": (
+        {"[output]": "[[traction]]\ntag = 2\nvalue = 1.0\n\n[output]"},
+        "[[traction]] #1 value = 1.0: has 1 component, the mesh is 2D",
+    ),
+    "initial-gradient-1d": (
+        {"velocity = [0.0, -1.0]": "displacement = { gradient = [[1.0]] }"},
+        "[initial] displacement = {'gradient': [[1.0]]}: has 1 component, the mesh is 2D",
+    ),
+    "initial-unknown-form": (
+        {"velocity = [0.0, -1.0]": "displacement = { slope = [0.0, 1.0] }"},
+        "takes the keys constant, gradient, hessian",
+    ),
+    # bodies, probes and columns
+    "body-without-cell-tags": (
+        {"[initial]\nvelocity = [0.0, -1.0]": "[[body]]\ntag = 1\nvelocity = [0.0, -1.0]"},
+        "[[body]] #1 tag = 1: the mesh has no cell tags",
+    ),
+    "body-and-initial-velocity": (
+        {"[output]": "[[body]]\ntag = 1\nvelocity = [0.0, -1.0]\n\n[output]"},
+        "[initial] velocity is given with [[body]] velocities: give one of them",
+    ),
+    "probe-scalar-component": (
+        {
+            "[output]": '[[probe]]\nname = "p"\nquantity = "contact_pressure"\ncomponent = 1\n'
+            "\n[output]"
+        },
+        "[[probe]] #1 component = 1: the quantity is scalar",
+    ),
+    "probe-component-2d": (
+        {"[output]": '[[probe]]\nname = "w"\nquantity = "velocity"\ncomponent = 2\n\n[output]'},
+        "[[probe]] #1 component = 2: the mesh is 2D",
+    ),
+    "probe-absent-tag": (
+        {"[output]": '[[probe]]\nname = "w"\nquantity = "velocity"\nfacets = 42\n\n[output]'},
+        "[[probe]] #1 facet tag 42 is not in the mesh",
+    ),
+    "columns-unknown": (
+        {"every = 10": 'every = 10\ncolumns = ["t", "energie"]'},
+        "[output] columns = ['t', 'energie']: 'energie' is not a column of this run",
+    ),
+    "output-every-float": ({"every = 10": "every = 1.5"}, "[output] every must be an integer"),
 }
 
 
@@ -209,6 +372,8 @@ def test_cli_refuses_bad_flags(tmp_path):
         (["run", str(tmp_path / "missing.toml")], "configuration file does not exist"),
         (["run", str(tmp_path)], "the configuration is a folder, not a TOML file"),
         (["run", config, "--restart", "--out", str(tmp_path / "new")], "no checkpoint in"),
+        (["run", config, "--output-every", "-1"], "--output-every -1"),
+        (["run", config, "--petsc", "=1"], "expected KEY=VALUE, got '=1'"),
     ]
     for flags, named in cases:
         result = run("-m", "nitsche_dolfinx", *flags)
@@ -233,6 +398,15 @@ FLAGS = {
     "compare-nx-zero": (["demos/compare_methods_1d.py", "--nx", "0"], "nx=0"),
     "convergence-gamma0": (["demos/convergence_1d.py", "--gamma0", "-1"], "--gamma0 -1"),
     "ball-max-step-cuts": (["demos/ball_3d.py", "--max-step-cuts", "31"], "--max-step-cuts 31"),
+    "bar-output-every-negative": (["demos/bar_1d.py", "--output-every", "-1"], "--output-every -1"),
+    "compare-output-every-negative": (
+        ["demos/compare_methods_1d.py", "--output-every", "-2"],
+        "--output-every -2",
+    ),
+    "convergence-output-every-negative": (
+        ["demos/convergence_1d.py", "--output-every", "-3"],
+        "--output-every -3",
+    ),
 }
 
 

@@ -1,0 +1,177 @@
+"""The meshes a configuration can generate (``[mesh] generator = "..."``): the meshes of the
+shipped demos, each the function of the library that the demo calls, with its keys and
+their defaults.
+
+A generator returns ``(mesh, cell_tags, facet_tags)``; ``cell_tags`` is None for the
+one-body meshes, and names the bodies of the two-body meshes (``[[body]]`` tables).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+__all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "generate_mesh"]
+
+
+@dataclass(frozen=True)
+class MeshGenerator:
+    """A mesh of the library: what it is, its keys with their defaults, its dimension
+    (``None``: the key ``dim`` says it) and its tags."""
+
+    meaning: str
+    keys: dict[str, object]
+    make: Callable = field(repr=False)
+    gdim: int | None = None
+    tags: str = ""
+
+    def dimension(self, table: dict) -> int:
+        """The geometric dimension of the mesh that ``table`` asks for."""
+        return self.gdim if self.gdim is not None else int(table.get("dim", self.keys["dim"]))
+
+
+def _bar(comm, nx, length):
+    from .meshes import bar_mesh
+
+    mesh, facet_tags = bar_mesh(nx, length, comm=comm)
+    return mesh, None, facet_tags
+
+
+def _block(comm, width, height, nx, ny):
+    from .meshes import block_mesh
+
+    mesh, facet_tags = block_mesh(width, height, nx, ny, comm=comm)
+    return mesh, None, facet_tags
+
+
+def _disk(comm, mesh_size, order, radius, center):
+    from .shapes import disk_mesh
+
+    mesh, facet_tags = disk_mesh(mesh_size, order, radius, center, comm=comm)
+    return mesh, None, facet_tags
+
+
+def _ball(comm, mesh_size, order, radius, center):
+    from .shapes import ball_mesh
+
+    mesh, facet_tags = ball_mesh(mesh_size, order, radius, center, comm=comm)
+    return mesh, None, facet_tags
+
+
+def _two_bars(comm, nx, gap):
+    from .twobody import two_bars_mesh
+
+    return two_bars_mesh(nx, gap, comm)
+
+
+def _mirrored_bodies(comm, dim, mesh_size, order, gap):
+    from .twobody import mirrored_bodies_mesh
+
+    return mirrored_bodies_mesh(dim, mesh_size, order, gap, comm)
+
+
+def _ball_on_slab(comm, dim, mesh_size, radius, width, thickness, gap):
+    from .twobody import ball_on_slab_mesh
+
+    return ball_on_slab_mesh(dim, mesh_size, radius, width, thickness, gap, comm)
+
+
+#: name -> the generator. The keys are those of the library's function, with its defaults.
+MESH_GENERATORS: dict[str, MeshGenerator] = {
+    "bar": MeshGenerator(
+        "the interval (0, length) of nx cells (meshes.bar_mesh)",
+        {"nx": 100, "length": 1.0},
+        _bar,
+        1,
+        "facets 1 at x = 0, 2 at x = length",
+    ),
+    "block": MeshGenerator(
+        "the rectangle (-width/2, width/2) x (0, height) in nx x ny x 2 triangles "
+        "(meshes.block_mesh)",
+        {"width": 2.0, "height": 1.0, "nx": 8, "ny": 4},
+        _block,
+        2,
+        "facets 1 at y = 0",
+    ),
+    "disk": MeshGenerator(
+        "the gmsh disk of the 2D impact test (shapes.disk_mesh)",
+        {"mesh_size": 8.0, "order": 2, "radius": 20.0, "center": [0.0, 20.0]},
+        _disk,
+        2,
+        "facets 1 lower half circle, 2 upper half",
+    ),
+    "ball": MeshGenerator(
+        "the gmsh ball of the 3D impact test (shapes.ball_mesh)",
+        {"mesh_size": 8.0, "order": 2, "radius": 20.0, "center": [0.0, 0.0, 20.0]},
+        _ball,
+        3,
+        "facets 1 lower hemisphere, 2 upper hemisphere",
+    ),
+    "two_bars": MeshGenerator(
+        "two bars of length 1, (gap, 1 + gap) and (-1, 0), nx cells each (twobody.two_bars_mesh)",
+        {"nx": 100, "gap": 0.0},
+        _two_bars,
+        1,
+        "cells 1 right bar, 2 left bar; facets 1 at x = gap, 2 at x = 0, 3 and 4 outer ends",
+    ),
+    "mirrored_bodies": MeshGenerator(
+        "the disk (dim = 2) or ball (dim = 3) of the impact test, lowest point gap/2 above "
+        "the plane x_dim = 0, and its mirror image (twobody.mirrored_bodies_mesh)",
+        {"dim": 2, "mesh_size": 8.0, "order": 2, "gap": 0.0},
+        _mirrored_bodies,
+        None,
+        "cells 1 upper body, 2 lower body; facets 1 upper body's lower half, 2 lower body's "
+        "upper half, 3 and 4 the rest",
+    ),
+    "ball_on_slab": MeshGenerator(
+        "a ball (dim = 3) or disk (dim = 2) gap above a slab (-width/2, width/2)^(dim-1) x "
+        "(0, thickness) (twobody.ball_on_slab_mesh)",
+        {
+            "dim": 3,
+            "mesh_size": 8.0,
+            "radius": 20.0,
+            "width": 80.0,
+            "thickness": 10.0,
+            "gap": 1.0,
+        },
+        _ball_on_slab,
+        None,
+        "cells 1 ball, 2 slab; facets 1 ball's lower half, 2 slab top, 3 slab bottom",
+    ),
+}
+
+
+def _positive(value) -> bool:
+    return math.isfinite(value) and value > 0
+
+
+#: Each generator key: its kind, what it is, and the range the config checks it in.
+GENERATOR_KEYS: dict[str, tuple[str, str, Callable, str]] = {
+    "nx": ("integer", "cells along x (two_bars: per bar)", lambda n: n >= 1, "at least 1"),
+    "ny": ("integer", "cells along y", lambda n: n >= 1, "at least 1"),
+    "length": ("number", "length of the bar", _positive, "positive"),
+    "width": ("number", "width of the block or the slab", _positive, "positive"),
+    "height": ("number", "height of the block", _positive, "positive"),
+    "thickness": ("number", "thickness of the slab", _positive, "positive"),
+    "mesh_size": ("number", "target edge length of the gmsh cells", _positive, "positive"),
+    "order": ("integer", "geometric order of the gmsh mesh (2: curved)", (1, 2).__contains__,
+              "1 or 2"),
+    "radius": ("number", "radius of the disk or ball", _positive, "positive"),
+    "center": ("vector", "centre of the disk or ball", lambda c: True, ""),
+    "gap": ("number", "initial gap between the bodies", lambda g: math.isfinite(g) and g >= 0,
+            ">= 0"),
+    "dim": ("integer", "2 (disks) or 3 (balls)", (2, 3).__contains__, "2 or 3"),
+}  # fmt: skip
+
+
+def generate_mesh(name: str, table: dict, comm):
+    """The mesh ``name`` with the keys of ``table`` (the others at their defaults):
+    ``(mesh, cell_tags or None, facet_tags)``.
+
+    Raises:
+        ValueError: A value the library refuses (the size of a gmsh body, say).
+    """
+    generator = MESH_GENERATORS[name]
+    values = {key: table.get(key, default) for key, default in generator.keys.items()}
+    return generator.make(comm, **values)
