@@ -114,7 +114,7 @@ class MixedStepper(TimeLevels):
         # energies: E = kinetic + elastic - L(u), no Nitsche correction
         contact, lam = self.contact, self._lambda
         self._energy_forms = [
-            fem.form(0.5 * problem.material.rho * ufl.inner(self.v, self.v) * problem.dx)
+            fem.form(0.5 * problem.material_constants.rho * ufl.inner(self.v, self.v) * problem.dx)
             if diagonal is None
             else None,
             fem.form(0.5 * problem.bulk_stiffness(self.u, self.u)),
@@ -179,7 +179,7 @@ class MixedStepper(TimeLevels):
         self._dt = fem.Constant(problem.mesh, self.dt)  # the size of the step
         u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, self._dt)
         # the Alart-Curnier parameter does not change the solution; h/E keeps the rows scaled
-        r = problem.h / problem.material.E
+        r = problem.h / problem.material_constants.E
         complementarity = (
             lam + positive_part(contact.normal_displacement(u1) - contact.gap - r * lam) / r
         )
@@ -283,7 +283,7 @@ class MixedStepper(TimeLevels):
         return {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material), ()),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
             "multiplier": (self.multiplier, ()),
         }
 

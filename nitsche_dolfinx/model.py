@@ -28,7 +28,7 @@ from . import compat
 from .contact import NitscheContact, PenaltyContact
 from .friction import FRICTION_QUANTITIES, ContactTerms, GuardedFriction
 from .mass import lumped_mass, redistributed_mass
-from .material import Material, sigma
+from .material import Material, MaterialConstants, sigma
 from .meshes import cell_diameter
 from .parameters import (
     CONTACT_METHODS,
@@ -115,7 +115,9 @@ class ContactProblem:
     The parameters are checked by :class:`~nitsche_dolfinx.parameters.NitscheParameters`
     and :class:`~nitsche_dolfinx.parameters.Discretisation`.
     ``gamma0`` and ``nitsche_theta`` are ``fem.Constant`` attributes: change
-    their ``.value`` between runs without recompiling any form.
+    their ``.value`` between runs without recompiling any form. The material enters
+    the forms as constants too (:attr:`material_constants`): a problem built with
+    another material reuses the compiled forms.
     """
 
     def __init__(
@@ -135,9 +137,15 @@ class ContactProblem:
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
         check_gamma0(nitsche.gamma0, nitsche.gamma0_scaling, material.E)
         discretisation = Discretisation(int(degree), mass, quadrature_degree)
+        compat.stable_form_signatures(mesh)  # a sweep finds its compiled forms
         self.mesh = mesh
         self.facet_tags = facet_tags
         self.material = material
+        #: The material's parameters as runtime constants: the forms of another
+        #: material are the same compiled forms (docs/method.md section 10).
+        self.material_constants = MaterialConstants(
+            material, lambda value: fem.Constant(mesh, float(value))
+        )
         self.degree = discretisation.degree
         self.method = nitsche.method
         self.mass = discretisation.mass
@@ -150,7 +158,7 @@ class ContactProblem:
         self.h = cell_diameter(mesh)
         self.gamma0_scaling = nitsche.gamma0_scaling
         if self.gamma0_scaling == "E":
-            self.gamma_h = self.gamma0 * self.h / material.E
+            self.gamma_h = self.gamma0 * self.h / self.material_constants.E
         else:
             self.gamma_h = self.gamma0 * self.h
         if quadrature_degree is None:
@@ -329,7 +337,7 @@ class ContactProblem:
 
     def stress(self, u):
         """sigma(u)."""
-        return sigma(u, self.material)
+        return sigma(u, self.material_constants)
 
     def bulk_stiffness(self, u, v):
         """a(u, v) = int sigma(u) : eps(v)."""
@@ -338,7 +346,7 @@ class ContactProblem:
     def inertia(self, acceleration, v):
         """<rho u'', v> with the consistent mass; zero for a diagonal mass
         (:meth:`mass_diagonal`), which the solver adds as a matrix."""
-        rho = self.material.rho if self.mass == "consistent" else 0.0
+        rho = self.material_constants.rho if self.mass == "consistent" else 0.0
         return rho * ufl.inner(acceleration, v) * self.dx
 
     def mass_diagonal(self, V=None):

@@ -476,7 +476,7 @@ class NitscheStepper(TimeLevels):
         fields = {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material), ()),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
         }
         if self._friction is not None:
             for field in self._friction.fields:
