@@ -23,6 +23,7 @@ from petsc4py import PETSc
 __all__ = [
     "apply_lifting",
     "cell_name",
+    "cells_containing",
     "collapse",
     "create_vector",
     "expression",
@@ -212,6 +213,25 @@ def cell_name(mesh) -> str:
 
 
 # -- PETSc vectors and assembly ------------------------------------------------------
+
+
+def cells_containing(mesh, point: np.ndarray) -> list[int]:
+    """The local cells (owned and ghosts) that contain ``point`` (shape (1, 3)).
+
+    dolfinx 0.8 renamed ``BoundingBoxTree(mesh, dim)`` to ``bb_tree(mesh, dim)`` and
+    ``compute_collisions`` (of points) to ``compute_collisions_points``.
+    """
+    import dolfinx.geometry as geometry
+
+    tdim = mesh.topology.dim
+    if hasattr(geometry, "bb_tree"):
+        tree = geometry.bb_tree(mesh, tdim)
+        candidates = geometry.compute_collisions_points(tree, point)
+    else:
+        tree = geometry.BoundingBoxTree(mesh, tdim)
+        candidates = geometry.compute_collisions(tree, point)
+    cells = geometry.compute_colliding_cells(mesh, candidates, point)
+    return [int(cell) for cell in cells.links(0)]
 
 
 def petsc_vector(u: fem.Function) -> PETSc.Vec:
