@@ -90,8 +90,9 @@ def test_half_disk_restarts_from_its_checkpoint(mpi_tmp_path):
 
     half(11.0).run(out=out, checkpoint_every=4)
     restarted = half(12.0).run(out=out, restart=True)
-    for name in HALVED:
-        assert np.array_equal(restarted[name], whole[name]), name
+    for name in HALVED:  # bitwise serially; round-off on ranks (two partitions of the mesh)
+        scale = np.abs(whole[name]).max()
+        assert np.abs(restarted[name] - whole[name]).max() <= 1e-12 * scale, name
 
 
 def test_half_disks_in_contact_with_each_other():
