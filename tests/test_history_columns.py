@@ -62,7 +62,7 @@ def test_contact_totals_of_each_obstacle():
     for name in ("contact_force", "contact_area"):
         first, second = history[f"{name}_1"], history[f"{name}_2"]
         scale = history[name].max()
-        assert np.abs(first - second).max() <= 1e-9 * scale
+        assert np.abs(first - second).max() <= 1e-11 * scale
         assert np.abs(first + second - history[name]).max() <= 1e-12 * scale
     before = history["t"] <= 8.5  # free fall: v = -0.1 t everywhere
     assert history["top_velocity_y"][before] == pytest.approx(-0.1 * history["t"][before])

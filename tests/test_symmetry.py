@@ -1,7 +1,7 @@
 """Symmetry conditions (one component of the displacement prescribed) against a known truth:
 half of a mirror-symmetric disk, held by u_x = 0 on its cut, has the full disk's history,
-its energies, contact force and area halved, with every scheme and method, serially and on
-2 ranks, through a restart and with contact between two bodies."""
+its energies, contact force and area halved (to 1e-11; measured 1e-13), with every scheme
+and method, serially and on 2 ranks, through a restart and with contact between bodies."""
 
 import numpy as np
 import pytest
@@ -34,7 +34,7 @@ def impact_run(scheme, half: bool, t_end=12.0, dt=0.25, comm=MPI.COMM_WORLD, **o
     return simulation.run(columns=[*HISTORY_COLUMNS, "momentum_x", "momentum_y"])
 
 
-def assert_halved(full, half, tolerance=1e-9, momentum=True):
+def assert_halved(full, half, tolerance=1e-11, momentum=True):
     """The half disk's sums are half the full disk's, its largest penetration and Newton
     iterations the same; the full disk has no momentum along x (``momentum``: and half of
     the momentum along y)."""
@@ -42,8 +42,8 @@ def assert_halved(full, half, tolerance=1e-9, momentum=True):
     for name in HALVED:
         scale = np.abs(full[name]).max()
         assert np.abs(full[name] - 2 * half[name]).max() <= tolerance * scale, name
-    assert np.abs(full["contact_area"] - 2 * half["contact_area"]).max() <= 1e-9 * RADIUS
-    assert np.abs(full["penetration_max"] - half["penetration_max"]).max() <= 1e-9
+    assert np.abs(full["contact_area"] - 2 * half["contact_area"]).max() <= tolerance * RADIUS
+    assert np.abs(full["penetration_max"] - half["penetration_max"]).max() <= tolerance * RADIUS
     assert np.array_equal(full["newton_iterations"], half["newton_iterations"])
     if not momentum:
         return
@@ -116,7 +116,7 @@ def test_half_disks_in_contact_with_each_other():
     full, half = histories
     assert_halved(full, half, momentum=False)
     for history in histories:  # the bodies' momenta cancel
-        assert np.abs(history["momentum_y"]).max() <= 1e-9 * history["kinetic"].max()
+        assert np.abs(history["momentum_y"]).max() <= 1e-12 * history["kinetic"].max()
 
 
 @pytest.mark.parametrize(
