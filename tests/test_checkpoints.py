@@ -273,8 +273,9 @@ def test_history_columns_may_be_added_on_restart_not_left_out(tmp_path):
     assert list(history) == more and len(history["t"]) == 6
     for name in ("momentum_y", "centre_of_mass_y"):
         assert np.all(np.isnan(history[name][:4])) and np.all(np.isnan(returned[name][:4]))
-        assert np.array_equal(history[name][4:], reference[name][4:])
-    assert np.array_equal(history["energy"], reference["energy"])
+    for name, first in (("energy", 0), ("momentum_y", 4), ("centre_of_mass_y", 4)):
+        difference = np.abs(history[name][first:] - reference[name][first:]).max()
+        assert difference <= 1e-12 * np.abs(reference[name]).max(), name
     assert "history columns" in open(os.path.join(out, "restarts.log")).read()
 
 
