@@ -95,6 +95,7 @@ def test_half_disk_restarts_from_its_checkpoint(mpi_tmp_path):
         assert np.abs(restarted[name] - whole[name]).max() <= 1e-12 * scale, name
 
 
+@pytest.mark.mpi
 def test_half_disks_in_contact_with_each_other():
     """Two disks colliding head-on through a contact pair (paired along the axis), and the
     left halves of both held by u_x = 0: the halves' history is half the disks'. The
