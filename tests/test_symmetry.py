@@ -31,7 +31,10 @@ def impact_run(scheme, half: bool, t_end=12.0, dt=0.25, comm=MPI.COMM_WORLD, **o
     if half:
         problem.add_dirichlet(SYMMETRY, 0.0, component=0)
     simulation = Simulation(problem, scheme, dt=dt, t_end=t_end)
-    return simulation.run(columns=[*HISTORY_COLUMNS, "momentum_x", "momentum_y"])
+    history = simulation.run(columns=[*HISTORY_COLUMNS, "momentum_x", "momentum_y"])
+    for name in ("contact_force", "contact_area"):  # one obstacle: its totals are the sums
+        assert np.array_equal(history[f"{name}_1"], history[name])
+    return history
 
 
 def assert_halved(full, half, tolerance=1e-11, momentum=True):
