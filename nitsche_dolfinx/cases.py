@@ -107,6 +107,8 @@ def impact_problem(
     friction: float | None = None,
     tangential_velocity: float = 0.0,
     gamma0_scaling: str = "absolute",
+    mesh: tuple | None = None,
+    method: str = "nitsche",
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
 
@@ -116,14 +118,19 @@ def impact_problem(
     t = sqrt(2 * 5 / 0.1) = 10 and hits the plane with speed 1. ``contact=False``
     leaves out the obstacle: plain linear elastodynamics on the same mesh.
     ``friction`` (mu_f) adds Coulomb friction, and ``tangential_velocity`` an initial
-    velocity along x: the body is thrown obliquely.
+    velocity along x: the body is thrown obliquely. ``mesh``: ``(mesh, facet_tags)`` of
+    another body to drop (a part of the disk or ball, say), Gamma_C tagged
+    ``DISK_CONTACT`` or ``BALL_CONTACT``; ``mesh_size`` and ``geometry_order`` are then
+    unused. ``method``: that of :class:`ContactProblem`.
     """
     from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
 
     if dim not in (2, 3):
         raise ValueError(f"the impact test is 2D (disk) or 3D (ball), got dim={dim!r}")
     make_mesh, contact_tag = (ball_mesh, BALL_CONTACT) if dim == 3 else (disk_mesh, DISK_CONTACT)
-    mesh, tags = make_mesh(mesh_size=mesh_size, order=geometry_order, comm=comm)
+    if mesh is None:
+        mesh = make_mesh(mesh_size=mesh_size, order=geometry_order, comm=comm)
+    mesh, tags = mesh
     problem = ContactProblem(
         mesh,
         tags,
@@ -133,6 +140,7 @@ def impact_problem(
         nitsche_theta=nitsche_theta,
         friction=friction,
         gamma0_scaling=gamma0_scaling,
+        method=method,
     )
     up = [0.0] * dim
     up[-1] = 1.0

@@ -43,6 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from mpi4py import MPI
 
+from .history import added_columns
+
 __all__ = [
     "CHECKPOINT_FILE",
     "has_checkpoint",
@@ -385,10 +387,11 @@ def load_state(stepper, folder: str, columns=None) -> SavedState:
         )
     saved_columns = metadata.get("columns")
     if columns is not None and saved_columns is not None and saved_columns != list(columns):
-        raise CheckpointError(
-            f"checkpoint {folder!r} was written by a run with the history columns "
-            f"{','.join(saved_columns)}, this run writes {','.join(columns)}"
-        )
+        try:
+            added_columns(saved_columns, columns)
+        except ValueError as error:
+            raise CheckpointError(f"checkpoint {folder!r} does not fit this run: {error}") from None
+        changes["history columns"] = (",".join(saved_columns), ",".join(columns))
     if metadata["t"] > stepper.t_end:
         raise CheckpointError(
             f"checkpoint {folder!r} is at t = {metadata['t']:.6g}, past t_end = {stepper.t_end:g}"

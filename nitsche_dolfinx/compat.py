@@ -23,6 +23,7 @@ from petsc4py import PETSc
 __all__ = [
     "apply_lifting",
     "cell_name",
+    "cells_containing",
     "collapse",
     "create_vector",
     "expression",
@@ -44,6 +45,7 @@ __all__ = [
     "trapezoid",
     "vtk_mesh",
     "write_meshtags",
+    "stable_form_signatures",
 ]
 
 
@@ -51,6 +53,64 @@ __all__ = [
 
 #: ``numpy.trapz`` was removed in numpy 2 in favour of ``numpy.trapezoid``.
 trapezoid = getattr(np, "trapezoid", None) or np.trapz
+
+
+# -- form signatures -------------------------------------------------------------------
+
+#: Counts left before the next power of ten below which :func:`stable_form_signatures`
+#: moves UFL's counter of constants to it: more than the constants one problem and its
+#: run create (about 20).
+CONSTANT_COUNT_HEADROOM = 1000
+
+
+def stable_form_signatures(mesh) -> None:
+    """Make the forms built next on ``mesh`` have the signatures of the same forms built
+    before, whatever their constants' values and counts, so that FFCx finds them in its
+    cache instead of compiling them again (a parameter sweep compiles once).
+
+    Two things otherwise change a signature:
+
+    - UFL orders the operands of sums and products by the ``repr`` of their terminals,
+      and a constant's ends with its count: counts of different lengths compare as
+      strings (``'100' < '99'``), and the same form may order its terms otherwise. The
+      counter of constants is moved to the next power of ten when fewer than
+      :data:`CONSTANT_COUNT_HEADROOM` counts are left before it (UFL 2022 keeps it in
+      ``Constant._globalcount``, later versions in an ``itertools.count``, ``_counter``).
+    - FFCx 0.5 gives the mesh's coordinate element the variant "equispaced" when it
+      first compiles a form on the mesh (never on a cache hit), which changes the hash
+      of the mesh's UFL domain: a form built before that keeps the old one in its
+      domain numbering, and gets another signature. The variant is set here, as FFCx
+      sets it (basix elements, from dolfinx 0.7, have theirs).
+    """
+    import itertools
+
+    domain = mesh.ufl_domain()
+    element = getattr(domain, "_ufl_coordinate_element", None)
+    sub_element = getattr(element, "_sub_element", None)
+    if sub_element is not None and getattr(sub_element, "_variant", "") is None:
+        scalar = ufl.FiniteElement(
+            element.family(),
+            element.cell(),
+            element.degree(),
+            element.quadrature_scheme(),
+            variant="equispaced",
+        )
+        domain._ufl_coordinate_element = ufl.VectorElement(scalar)
+    constant = ufl.Constant
+    if isinstance(constant.__dict__.get("_globalcount"), int):  # UFL 2022
+        current = constant._globalcount
+    else:
+        counter = constant.__dict__.get("_counter")
+        current = 0 if counter is None else next(counter)
+    power = 10
+    while power <= current:
+        power *= 10
+    while power - current < CONSTANT_COUNT_HEADROOM:  # too close: start at that power
+        current, power = power, power * 10
+    if isinstance(constant.__dict__.get("_globalcount"), int):
+        constant._globalcount = current
+    else:
+        constant._counter = itertools.count(current)
 
 
 # -- function spaces -------------------------------------------------------------------
@@ -154,6 +214,25 @@ def cell_name(mesh) -> str:
 
 
 # -- PETSc vectors and assembly ------------------------------------------------------
+
+
+def cells_containing(mesh, point: np.ndarray) -> list[int]:
+    """The local cells (owned and ghosts) that contain ``point`` (shape (1, 3)).
+
+    dolfinx 0.8 renamed ``BoundingBoxTree(mesh, dim)`` to ``bb_tree(mesh, dim)`` and
+    ``compute_collisions`` (of points) to ``compute_collisions_points``.
+    """
+    import dolfinx.geometry as geometry
+
+    tdim = mesh.topology.dim
+    if hasattr(geometry, "bb_tree"):
+        tree = geometry.bb_tree(mesh, tdim)
+        candidates = geometry.compute_collisions_points(tree, point)
+    else:
+        tree = geometry.BoundingBoxTree(mesh, tdim)
+        candidates = geometry.compute_collisions(tree, point)
+    cells = geometry.compute_colliding_cells(mesh, candidates, point)
+    return [int(cell) for cell in cells.links(0)]
 
 
 def petsc_vector(u: fem.Function) -> PETSc.Vec:

@@ -18,8 +18,17 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
+from .history import centre_of_mass_columns, contact_columns, momentum_columns
 
-__all__ = ["BoundaryAverage", "BoundaryField", "Diagnostics", "Penetration", "assemble_global"]
+__all__ = [
+    "BoundaryAverage",
+    "BoundaryField",
+    "Diagnostics",
+    "MassMoments",
+    "Penetration",
+    "PointValue",
+    "assemble_global",
+]
 
 
 def assemble_global(form, comm) -> float:
@@ -138,8 +147,63 @@ class Penetration:
         return self.comm.allreduce(local, op=MPI.MAX)
 
 
+class MassMoments:
+    """The mass of the body and its first moments, from its mass matrix M (consistent,
+    or the lumped or redistributed diagonal): the kinetic energy 1/2 v . M v, the total
+    linear momentum (the rows of M v summed by component) and the centre of mass (those of
+    M (x + u), over the mass; x the positions of the nodes, which the displacement space
+    interpolates exactly when it holds the geometry).
+
+    Args:
+        model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
+    """
+
+    def __init__(self, model):
+        self.comm = model.mesh.comm
+        trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
+        diagonal = model.mass_diagonal()
+        if diagonal is None:
+            self.matrix = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+        else:  # lumped or redistributed mass: a diagonal matrix
+            self.matrix = _diagonal_matrix(diagonal)
+        self.matrix.assemble()
+        self._work = self.matrix.createVecLeft()
+        self.bs = model.V.dofmap.index_map_bs
+        self.momentum_names = momentum_columns(self.bs)
+        self.centre_names = centre_of_mass_columns(self.bs)
+        positions = fem.Function(model.V)
+        positions.interpolate(lambda x: x[: self.bs])
+        self._first_moment = self._sums(positions)  # of the undeformed body
+        positions.x.array[:] = 1.0
+        self.mass = float(self._sums(positions)[0])
+
+    def _sums(self, function) -> np.ndarray:
+        """M f summed by component over all ranks (M f stays in the work vector)."""
+        self.matrix.mult(compat.petsc_vector(function), self._work)
+        return self.comm.allreduce(self._work.array.reshape(-1, self.bs).sum(axis=0), op=MPI.SUM)
+
+    def kinetic_and_momentum(self, v) -> tuple[float, np.ndarray]:
+        """1/2 v . M v and the momentum, by component."""
+        momentum = self._sums(v)
+        return 0.5 * self._work.dot(compat.petsc_vector(v)), momentum
+
+    def centre_of_mass(self, u) -> np.ndarray:
+        """The centre of mass of the body deformed by ``u``, by component."""
+        return (self._first_moment + self._sums(u)) / self.mass
+
+    def values(self, u, v) -> dict[str, float]:
+        """The momentum and centre-of-mass columns at the state (u, v)."""
+        _, momentum = self.kinetic_and_momentum(v)
+        return {
+            **dict(zip(self.momentum_names, momentum.tolist())),
+            **dict(zip(self.centre_names, self.centre_of_mass(u).tolist())),
+        }
+
+
 class Diagnostics:
-    """Energies, contact force, contact area and penetration of a displacement/velocity pair.
+    """Energies, contact force, contact area and penetration of a displacement/velocity
+    pair; the momentum and the centre of mass (:class:`MassMoments`); the contact totals of
+    each contact term (:func:`~nitsche_dolfinx.history.contact_columns`).
 
     Args:
         model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
@@ -153,20 +217,10 @@ class Diagnostics:
         self.u, self.v = u, v
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
-        diagonal = model.mass_diagonal()
-        if diagonal is None:
-            self._mass = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
-        else:  # lumped or redistributed mass: a diagonal matrix
-            self._mass = _diagonal_matrix(diagonal)
-        self._mass.assemble()
+        self.moments = MassMoments(model)
         self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
         self._stiffness.assemble()
-        self._work = self._mass.createVecLeft()
-        self._bs = model.V.dofmap.index_map_bs
-        #: the total linear momentum, the rows of M v summed by component
-        self._momentum_names = (
-            ["momentum"] if self._bs == 1 else [f"momentum_{c}" for c in "xyz"[: self._bs]]
-        )
+        self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         forms = {
             "potential": -model.load(u),
@@ -174,6 +228,11 @@ class Diagnostics:
             "contact_force": _total([c.force(u) for c in model.contacts], zero),
             "contact_area": _total([c.area(u) for c in model.contacts], zero),
         }
+        self._each_contact = contact_columns(len(model.contacts))
+        if len(model.contacts) > 1:  # one contact: its totals are the sums
+            for k, contact in enumerate(model.contacts, start=1):
+                forms[f"contact_force_{k}"] = contact.force(u)
+                forms[f"contact_area_{k}"] = contact.area(u)
         self._forms = {name: fem.form(form) for name, form in forms.items()}
         self.penetration = Penetration(model, u)
 
@@ -188,11 +247,12 @@ class Diagnostics:
         self.model.update_partners()
         local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
         values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
-        values["kinetic"] = self._quadratic(self._mass, self.v)
-        momentum = self._work.array.reshape(-1, self._bs).sum(axis=0)  # M v, by component
-        momentum = self.comm.allreduce(momentum, op=MPI.SUM)
+        values["kinetic"], momentum = self.moments.kinetic_and_momentum(self.v)
         values["elastic"] = self._quadratic(self._stiffness, self.u)
         energy = values["kinetic"] + values["elastic"] + values["potential"]
+        if len(self.model.contacts) == 1:  # its totals are the sums
+            values["contact_force_1"] = values["contact_force"]
+            values["contact_area_1"] = values["contact_area"]
         return {
             "energy": energy,
             "energy_theta": energy + values["energy_correction"],
@@ -202,5 +262,55 @@ class Diagnostics:
             "contact_force": values["contact_force"],
             "contact_area": values["contact_area"],
             "penetration_max": self.penetration.max(),
-            **dict(zip(self._momentum_names, momentum.tolist())),
+            **dict(zip(self.moments.momentum_names, momentum.tolist())),
+            **dict(zip(self.moments.centre_names, self.moments.centre_of_mass(self.u).tolist())),
+            **{name: values[name] for name in self._each_contact},
         }
+
+
+class PointValue:
+    """The value of a Function (or of one of its components) at a point of the body in
+    its reference configuration, for a history column: the same number on every rank.
+
+    The point's cell is found once; at each call, the rank that owns it (the lowest such
+    rank when the point lies between cells) evaluates the Function and sends the value to
+    the others. ``simulation.add_probe("u_top", PointValue(simulation.u, [0, 40], 1))``.
+
+    Args:
+        function: The Function (``simulation.u``, ``simulation.v``, ...).
+        point: The point, with the mesh's coordinates (1 to 3 of them).
+        component: The component of a vector Function (0 for x, ...); None for a scalar
+            Function.
+
+    Raises:
+        ValueError: The point is in no cell of the mesh, or the component does not fit.
+    """
+
+    def __init__(self, function: fem.Function, point, component: int | None = None):
+        mesh = function.function_space.mesh
+        self.comm = mesh.comm
+        self.function = function
+        size = int(np.prod(function.ufl_shape)) if function.ufl_shape else 1
+        if component is None and size != 1:
+            raise ValueError(f"{function.name} has {size} components: give the component")
+        if component is not None and not 0 <= int(component) < size:
+            raise ValueError(f"component={component!r}: {function.name} has {size} components")
+        self.component = 0 if component is None else int(component)
+        self.point = np.zeros((1, 3))
+        coordinates = np.asarray(point, dtype=float).reshape(-1)
+        self.point[0, : coordinates.size] = coordinates
+        cells = compat.cells_containing(mesh, self.point)
+        owned = mesh.topology.index_map(mesh.topology.dim).size_local
+        cells = [c for c in cells if c < owned]
+        self.cell = cells[0] if cells else -1
+        ranks = self.comm.allgather(self.cell >= 0)
+        if not any(ranks):
+            raise ValueError(f"the point {coordinates.tolist()} is in no cell of the mesh")
+        self.root = ranks.index(True)
+
+    def __call__(self) -> float:
+        value = None
+        if self.comm.rank == self.root:
+            values = self.function.eval(self.point, np.array([self.cell], dtype=np.int32))
+            value = float(np.asarray(values).reshape(-1)[self.component])
+        return self.comm.bcast(value, root=self.root) if self.comm.size > 1 else value

@@ -14,12 +14,16 @@ The column names are those of ``history.csv`` (docs/method.md section 6).
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 
 __all__ = [
     "BALANCE_COLUMNS",
+    "added_columns",
+    "centre_of_mass_columns",
+    "contact_columns",
+    "momentum_columns",
     "FRICTION_HISTORY_COLUMNS",
     "HISTORY_COLUMNS",
     "STATE_COLUMNS",
@@ -49,6 +53,49 @@ HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds", *ST
 BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
 #: Columns of ``history.csv`` for the friction demos: the balance after the listed ones.
 FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
+
+
+def _by_component(name: str, gdim: int) -> tuple[str, ...]:
+    return (name,) if gdim == 1 else tuple(f"{name}_{c}" for c in "xyz"[:gdim])
+
+
+def momentum_columns(gdim: int) -> tuple[str, ...]:
+    """The total linear momentum: ``momentum`` in 1D, else ``momentum_x``, ``momentum_y``
+    (, ``momentum_z``): the rows of M v summed by component."""
+    return _by_component("momentum", gdim)
+
+
+def centre_of_mass_columns(gdim: int) -> tuple[str, ...]:
+    """The centre of mass of the deformed body, ``centre_of_mass`` in 1D, else
+    ``centre_of_mass_x``, ...: the rows of M (x + u) summed by component over the mass
+    (x the nodes' positions: exact for a space that holds the geometry)."""
+    return _by_component("centre_of_mass", gdim)
+
+
+def contact_columns(count: int) -> tuple[str, ...]:
+    """The contact totals of each contact term, in the order they were added (an obstacle
+    is one, a contact pair two: its halves): ``contact_force_1``, ``contact_area_1``,
+    ``contact_force_2``, ... (``contact_force`` and ``contact_area`` are their sums)."""
+    return tuple(
+        f"{name}_{k}" for k in range(1, count + 1) for name in ("contact_force", "contact_area")
+    )
+
+
+def added_columns(previous: Sequence[str], columns: Sequence[str]) -> list[str]:
+    """The columns a restarted run adds to a history that had ``previous`` ones (its rows
+    before the restart get ``nan`` there).
+
+    Raises:
+        ValueError: The run does not write some of the history's columns: their values
+            after the restart could not be given.
+    """
+    missing = [name for name in previous if name not in columns]
+    if missing:
+        raise ValueError(
+            f"its history columns {','.join(missing)} are not among this run's "
+            f"({','.join(columns)}): a restart may add columns, not leave any out"
+        )
+    return [name for name in columns if name not in previous]
 
 
 class History:

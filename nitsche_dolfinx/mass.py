@@ -34,6 +34,7 @@ def _accumulate(vec: PETSc.Vec) -> None:
 def lumped_mass(V, rho: float) -> PETSc.Vec:
     """Row sums of the consistent mass matrix ``int rho u . v`` on the vector space ``V``."""
     ones = fem.Constant(V.mesh, np.ones(V.mesh.geometry.dim))
+    rho = fem.Constant(V.mesh, float(rho))  # a constant: one compiled form for every rho
     mass = compat.create_vector(V)
     with mass.localForm() as local:
         local.set(0.0)

@@ -4,6 +4,10 @@ Conventions of docs/method.md section 1: ``sigma(u) = lambda tr(eps(u)) I + 2 mu
 (plane strain in 2D, ``sigma = E u'`` in 1D), ``sigma_n(u) = (sigma(u) n) . n_c``
 with ``n`` the outward unit normal of the mesh and ``n_c`` the obstacle normal,
 and ``sigma_t(u) = sigma(u) n - sigma_n(u) n_c``.
+
+The formulas take a :class:`Material` (its values enter a form as numbers) or its
+:class:`MaterialConstants` (runtime constants: a form compiled once serves every
+material, docs/method.md section 10).
 """
 
 from __future__ import annotations
@@ -13,7 +17,7 @@ from dataclasses import dataclass
 
 import ufl
 
-__all__ = ["Material", "eps", "sigma", "sigma_n", "sigma_t", "von_mises"]
+__all__ = ["Material", "MaterialConstants", "eps", "sigma", "sigma_n", "sigma_t", "von_mises"]
 
 
 @dataclass(frozen=True)
@@ -60,12 +64,36 @@ class Material:
         return self.E / (2 * (1 + self.nu))
 
 
+class MaterialConstants:
+    """The parameters of a :class:`Material` as runtime constants of the forms, so that a
+    form compiled for one material serves every other (a sweep over E, nu or rho
+    compiles its forms once).
+
+    Args:
+        material: The material; kept as :attr:`material` for the code that needs
+            numbers (mass matrices, time step estimates, messages).
+        constant: Makes a constant of the forms from a number (for dolfinx:
+            ``lambda value: fem.Constant(mesh, value)``).
+
+    Attributes ``E``, ``nu``, ``lmbda``, ``mu`` and ``rho`` are the constants, with the
+    numbers of ``material`` (``lmbda`` and ``mu`` computed as :class:`Material` does).
+    """
+
+    def __init__(self, material: Material, constant):
+        self.material = material
+        self.E = constant(material.E)
+        self.nu = constant(material.nu)
+        self.lmbda = constant(material.lmbda)
+        self.mu = constant(material.mu)
+        self.rho = constant(material.rho)
+
+
 def eps(u):
     """Linearised strain eps(u) = sym(grad u)."""
     return ufl.sym(ufl.grad(u))
 
 
-def sigma(u, material: Material):
+def sigma(u, material: Material | MaterialConstants):
     """Cauchy stress of linear elasticity; ``E u'`` on a 1D mesh, plane strain in 2D."""
     dim = u.ufl_shape[0]
     if dim == 1:
@@ -83,7 +111,7 @@ def sigma_t(stress, n, n_c):
     return ufl.dot(stress, n) - sigma_n(stress, n, n_c) * n_c
 
 
-def von_mises(u, material: Material):
+def von_mises(u, material: Material | MaterialConstants):
     """Von Mises equivalent stress; the out-of-plane stress of plane strain is included in 2D."""
     dim = u.ufl_shape[0]
     stress = sigma(u, material)

@@ -26,11 +26,13 @@ from typing import Any
 import numpy as np
 import ufl
 from dolfinx import fem
+from petsc4py import PETSc
 
 from . import compat
 from .checkpoint import node_coordinates
 from .contact import positive_part
-from .diagnostics import Penetration, assemble_global
+from .diagnostics import MassMoments, Penetration, assemble_global
+from .dirichlet import DirichletDofs
 from .fields import ContactFields
 from .material import von_mises
 from .model import ContactProblem
@@ -81,7 +83,7 @@ def _check_mixed(problem: ContactProblem, scheme) -> None:
         raise ParameterError(
             "obstacles", len(problem.contacts), "the mixed method takes exactly one obstacle"
         )
-    if any(v.time_dependent or np.any(v.value_at(0.0)) for _, v in problem.dirichlet):
+    if any(c.value.time_dependent or np.any(c.value.value_at(0.0)) for c in problem.dirichlet):
         raise ValueError("the mixed method supports homogeneous Dirichlet values only")
 
 
@@ -115,7 +117,7 @@ class MixedStepper(TimeLevels):
         # energies: E = kinetic + elastic - L(u), no Nitsche correction
         contact, lam = self.contact, self._lambda
         self._energy_forms = [
-            fem.form(0.5 * problem.material.rho * ufl.inner(self.v, self.v) * problem.dx)
+            fem.form(0.5 * problem.material_constants.rho * ufl.inner(self.v, self.v) * problem.dx)
             if diagonal is None
             else None,
             fem.form(0.5 * problem.bulk_stiffness(self.u, self.u)),
@@ -124,6 +126,7 @@ class MixedStepper(TimeLevels):
         ]
         self._area = fem.form(ufl.conditional(ufl.lt(lam, 0.0), 1.0, 0.0) * contact.ds)
         self._penetration = Penetration(problem, self.u)
+        self._moments = MassMoments(problem)  # momentum and centre of mass
         self._massless = problem.massless_dofs()
         self._contact_fields = None  # ContactFields, once the output asks for them
         self.newton_iterations, self.step_seconds = 0, 0.0
@@ -159,9 +162,15 @@ class MixedStepper(TimeLevels):
         mesh = problem.mesh
         fdim = mesh.topology.dim - 1
         bcs = []
-        for bc_tag, _ in problem.dirichlet:
-            dofs = fem.locate_dofs_topological((W.sub(0), V0), fdim, problem.facets(bc_tag))
-            bcs.append(fem.dirichletbc(fem.Function(V0), dofs, W.sub(0)))
+        for condition in problem.dirichlet:
+            facets = problem.facets(condition.tag)
+            if condition.component is None:
+                dofs = fem.locate_dofs_topological((W.sub(0), V0), fdim, facets)
+                bcs.append(fem.dirichletbc(fem.Function(V0), dofs, W.sub(0)))
+            else:  # one component: a zero on the subspace of W that holds it
+                part = W.sub(0).sub(condition.component)
+                dofs = fem.locate_dofs_topological(part, fdim, facets)
+                bcs.append(fem.dirichletbc(PETSc.ScalarType(0), dofs, part))
         mesh.topology.create_connectivity(0, mesh.topology.dim)
         num_vertices = mesh.topology.index_map(0).size_local + mesh.topology.index_map(0).num_ghosts
         every = fem.locate_dofs_topological(
@@ -181,7 +190,7 @@ class MixedStepper(TimeLevels):
         self._dt = fem.Constant(problem.mesh, self.dt)  # the size of the step
         u1, _, _ = self.scheme.kinematics(self.u, self.v, self.a, w, self._dt)
         # the Alart-Curnier parameter does not change the solution; h/E keeps the rows scaled
-        r = problem.h / problem.material.E
+        r = problem.h / problem.material_constants.E
         complementarity = (
             lam + positive_part(contact.normal_displacement(u1) - contact.gap - r * lam) / r
         )
@@ -221,19 +230,17 @@ class MixedStepper(TimeLevels):
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
         check_initial_gap(self._penetration.max(), problem.mesh)
-        fdim = problem.mesh.topology.dim - 1
-        V = problem.V
-        bc_dofs = [
-            fem.locate_dofs_topological(V, fdim, problem.facets(tag))
-            for tag, _ in problem.dirichlet
-        ]
         initial_acceleration(
-            problem, self.a, lambda test: problem.bulk_stiffness(self.u, test), bc_dofs
+            problem,
+            self.a,
+            lambda test: problem.bulk_stiffness(self.u, test),
+            DirichletDofs(problem),
         )
 
     def state(self) -> dict:
         """t, the energies (E = E_Theta here: no Nitsche term), the contact force
-        -int lambda, the contact area (where lambda < 0) and the largest penetration."""
+        -int lambda, the contact area (where lambda < 0) and the largest penetration; the
+        momentum, the centre of mass and the totals of the one obstacle (``_1``)."""
         kinetic, elastic, potential, force = (
             self._kinetic() if form is None else assemble_global(form, self.comm)
             for form in self._energy_forms
@@ -253,7 +260,9 @@ class MixedStepper(TimeLevels):
             "step_seconds": self.step_seconds,
             "dt": self.last_dt,
             "step_cuts": self.step_cuts,
+            **self._moments.values(self.u, self.v),
         }
+        values["contact_force_1"], values["contact_area_1"] = force, values["contact_area"]
         return values
 
     def step(self, t_new: float | None = None, cuts: int = 0) -> int:
@@ -291,7 +300,7 @@ class MixedStepper(TimeLevels):
         return {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material), ()),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
             **self._contact_fields.fields(),
         }
 

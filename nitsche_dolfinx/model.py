@@ -26,9 +26,10 @@ from mpi4py import MPI
 
 from . import compat
 from .contact import NitscheContact, PenaltyContact
+from .dirichlet import DirichletCondition, TimeDependentValue, as_array
 from .friction import FRICTION_QUANTITIES, ContactTerms, GuardedFriction
 from .mass import lumped_mass, redistributed_mass
-from .material import Material, sigma
+from .material import Material, MaterialConstants, sigma
 from .meshes import cell_diameter
 from .parameters import (
     CONTACT_METHODS,
@@ -40,41 +41,14 @@ from .parameters import (
     require_choice,
 )
 
-__all__ = ["CONTACT_METHODS", "MASS_MATRICES", "ContactProblem", "TimeDependentValue", "as_array"]
-
-
-class TimeDependentValue:
-    """A constant or a function of t, held in a ``fem.Constant`` that follows the time."""
-
-    def __init__(self, mesh, value, shape: tuple[int, ...], what: str):
-        self._function = value if callable(value) else None
-        initial = value(0.0) if callable(value) else value
-        self.constant = fem.Constant(mesh, as_array(initial, shape, what))
-        self.shape = shape
-        self.what = what
-
-    @property
-    def time_dependent(self) -> bool:
-        """Whether the value is a function of t."""
-        return self._function is not None
-
-    def value_at(self, t: float) -> np.ndarray:
-        if self._function is None:
-            return np.asarray(self.constant.value)
-        return as_array(self._function(t), self.shape, self.what)
-
-    def set_time(self, t: float) -> None:
-        if self._function is not None:
-            self.constant.value = self.value_at(t)
-
-
-def as_array(value, shape, what) -> np.ndarray:
-    array = np.asarray(value, dtype=float)
-    if array.shape != shape:
-        if array.size == 1 and shape == (1,):
-            return array.reshape(shape)
-        raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
-    return array
+__all__ = [
+    "CONTACT_METHODS",
+    "MASS_MATRICES",
+    "ContactProblem",
+    "DirichletCondition",
+    "TimeDependentValue",
+    "as_array",
+]
 
 
 class ContactProblem:
@@ -115,7 +89,9 @@ class ContactProblem:
     The parameters are checked by :class:`~nitsche_dolfinx.parameters.NitscheParameters`
     and :class:`~nitsche_dolfinx.parameters.Discretisation`.
     ``gamma0`` and ``nitsche_theta`` are ``fem.Constant`` attributes: change
-    their ``.value`` between runs without recompiling any form.
+    their ``.value`` between runs without recompiling any form. The material enters
+    the forms as constants too (:attr:`material_constants`): a problem built with
+    another material reuses the compiled forms.
     """
 
     def __init__(
@@ -135,9 +111,15 @@ class ContactProblem:
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
         check_gamma0(nitsche.gamma0, nitsche.gamma0_scaling, material.E)
         discretisation = Discretisation(int(degree), mass, quadrature_degree)
+        compat.stable_form_signatures(mesh)  # a sweep finds its compiled forms
         self.mesh = mesh
         self.facet_tags = facet_tags
         self.material = material
+        #: The material's parameters as runtime constants: the forms of another
+        #: material are the same compiled forms (docs/method.md section 10).
+        self.material_constants = MaterialConstants(
+            material, lambda value: fem.Constant(mesh, float(value))
+        )
         self.degree = discretisation.degree
         self.method = nitsche.method
         self.mass = discretisation.mass
@@ -150,7 +132,7 @@ class ContactProblem:
         self.h = cell_diameter(mesh)
         self.gamma0_scaling = nitsche.gamma0_scaling
         if self.gamma0_scaling == "E":
-            self.gamma_h = self.gamma0 * self.h / material.E
+            self.gamma_h = self.gamma0 * self.h / self.material_constants.E
         else:
             self.gamma_h = self.gamma0 * self.h
         if quadrature_degree is None:
@@ -161,7 +143,7 @@ class ContactProblem:
         self.ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags, metadata=metadata)
         self.contacts: list[NitscheContact] = []
         self.contact_tags: list[int] = []
-        self.dirichlet: list[tuple[int, TimeDependentValue]] = []
+        self.dirichlet: list[DirichletCondition] = []
         self._body_forces: list[TimeDependentValue] = []
         self._tractions: list[tuple[int, TimeDependentValue]] = []
         self.initial_displacement = None
@@ -184,13 +166,36 @@ class ContactProblem:
             raise ValueError(f"facet tag {tag!r} is not in the mesh (its facet tags are {present})")
         return np.asarray(found, dtype=np.int32)
 
-    def add_dirichlet(self, tag: int, value=0.0) -> None:
+    def add_dirichlet(self, tag: int, value=0.0, component: int | None = None) -> None:
         """Prescribe the displacement on the facets ``tag``: a vector (or scalar in 1D),
-        or a function of t returning one."""
+        or a function of t returning one.
+
+        With ``component=k``, only the component k of the displacement (0 for x, 1 for
+        y, 2 for z), the others left free: ``value`` is then a scalar or a function of t
+        returning one. ``add_dirichlet(tag, 0.0, component=0)`` is a symmetry plane x =
+        const, or a roller on it.
+        """
         self.facets(tag)
-        self.dirichlet.append(
-            (tag, TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value"))
+        if component is None or self.gdim == 1:
+            require(
+                component in (None, 0),
+                "component",
+                component,
+                "the displacement of a 1D mesh has one component, 0",
+            )
+            value = TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value")
+            self.dirichlet.append(DirichletCondition(tag, value))
+            return
+        require(
+            isinstance(component, (int, np.integer))
+            and not isinstance(component, bool)
+            and 0 <= component < self.gdim,
+            "component",
+            component,
+            f"the displacement has the components 0 to {self.gdim - 1}",
         )
+        value = TimeDependentValue(self.mesh, value, (1,), "Dirichlet value of a component")
+        self.dirichlet.append(DirichletCondition(tag, value, int(component)))
 
     def add_body_force(self, value) -> None:
         """Add a volume force f: a vector, or a function of t returning one."""
@@ -329,7 +334,7 @@ class ContactProblem:
 
     def stress(self, u):
         """sigma(u)."""
-        return sigma(u, self.material)
+        return sigma(u, self.material_constants)
 
     def bulk_stiffness(self, u, v):
         """a(u, v) = int sigma(u) : eps(v)."""
@@ -338,7 +343,7 @@ class ContactProblem:
     def inertia(self, acceleration, v):
         """<rho u'', v> with the consistent mass; zero for a diagonal mass
         (:meth:`mass_diagonal`), which the solver adds as a matrix."""
-        rho = self.material.rho if self.mass == "consistent" else 0.0
+        rho = self.material_constants.rho if self.mass == "consistent" else 0.0
         return rho * ufl.inner(acceleration, v) * self.dx
 
     def mass_diagonal(self, V=None):

@@ -21,6 +21,7 @@ from dolfinx.io import XDMFFile
 
 from . import compat
 from .fields import NodalMean, OutputMesh
+from .history import added_columns
 from .series import PART_SUFFIX, SeriesXML, _continuation, _remove_segments, continue_solution
 
 __all__ = [
@@ -41,11 +42,12 @@ class HistoryWriter:
         comm: The communicator; only its rank 0 writes.
         resume_at: Continue an existing file instead: keep its rows up to this time
             (which must be its last row but for rows after it, dropped) and append.
-            The kept rows are in :attr:`previous_rows` on every rank.
+            The kept rows are in :attr:`previous_rows` on every rank. ``columns`` may
+            add columns to the file's, which then hold ``nan`` in the kept rows.
 
     Raises:
         ValueError: On every rank, if the file cannot be written, or cannot be continued
-            (missing, other columns, or no row at ``resume_at``).
+            (missing, a column of the file left out, or no row at ``resume_at``).
     """
 
     def __init__(self, path: str, columns: Sequence[str], comm, resume_at: float | None = None):
@@ -98,31 +100,35 @@ def _parse_number(text: str):
 
 
 def _rows_up_to(path: str, columns: list[str], t: float) -> list[dict]:
-    """Cut the history ``path`` after its row at time ``t`` (atomically); return the rows kept."""
+    """Cut the history ``path`` after its row at time ``t`` (atomically); return the rows kept.
+
+    The run may write more columns than the file has
+    (:func:`~nitsche_dolfinx.history.added_columns`): the file is rewritten with the run's
+    header, ``nan`` in the new columns of the kept rows."""
     if not os.path.isfile(path):
         raise ValueError(f"cannot continue the history: {path!r} does not exist")
     with open(path, newline="") as f:
         lines = f.read().splitlines()
     header = lines[0].split(",") if lines else []
-    if header != columns:
-        raise ValueError(
-            f"cannot continue the history {path!r}: its columns are {','.join(header)}, "
-            f"this run writes {','.join(columns)}"
-        )
+    try:
+        added_columns(header, columns)
+    except ValueError as error:
+        raise ValueError(f"cannot continue the history {path!r}: {error}") from None
     tolerance = 1e-9 * max(abs(t), 1.0)
-    kept, rows = [lines[0]], []
+    kept, rows = [",".join(columns)], []
     for line in lines[1:]:
         fields = line.split(",")
-        if len(fields) != len(columns):  # a row cut short by a hard kill: the end of the file
+        if len(fields) != len(header):  # a row cut short by a hard kill: the end of the file
             break
         try:
-            row = dict(zip(columns, (_parse_number(x) for x in fields)))
+            row = dict(zip(header, (_parse_number(x) for x in fields)))
         except ValueError:
             break
         if row["t"] > t + tolerance:
             break
-        kept.append(line)
-        rows.append(row)
+        text = dict(zip(header, fields))
+        kept.append(",".join(text.get(name, "nan") for name in columns))
+        rows.append({name: row.get(name, float("nan")) for name in columns})
     if not rows or abs(rows[-1]["t"] - t) > tolerance:
         last = f"ends at t = {rows[-1]['t']:.6g}" if rows else "has no rows"
         raise ValueError(

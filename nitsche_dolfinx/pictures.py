@@ -50,7 +50,7 @@ class Snapshot:
         gdim = mesh.geometry.dim
         W = compat.function_space(mesh, "Lagrange", compat.geometry_degree(mesh))
         expressions = [simulation.u[i] for i in range(gdim)] + [
-            von_mises(simulation.u, simulation.problem.material)
+            von_mises(simulation.u, simulation.problem.material_constants)
         ]
         values = []
         for expression in expressions:

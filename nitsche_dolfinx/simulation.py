@@ -146,7 +146,10 @@ class Simulation:
 
     def add_probe(self, name: str, probe: Callable[[], float]) -> None:
         """Add a history column computed by ``probe()`` at every time level (the same
-        number on every rank, e.g. a :class:`~nitsche_dolfinx.diagnostics.BoundaryAverage`)."""
+        number on every rank): a :class:`~nitsche_dolfinx.diagnostics.BoundaryAverage`
+        (a mean over a boundary part or the body), a
+        :class:`~nitsche_dolfinx.diagnostics.PointValue` (a Function at a point), or any
+        function. Name it in ``run(columns=...)`` to write it."""
         self._probes[name] = probe
 
     def contact_pressure(self):

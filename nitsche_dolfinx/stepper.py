@@ -22,10 +22,11 @@ from mpi4py import MPI
 
 from . import compat
 from .diagnostics import Diagnostics
+from .dirichlet import DirichletDofs, as_array
 from .fields import ContactFields, OnBoundary
 from .friction import ContactTerms, FrictionOutput, GuardedNewton
 from .material import von_mises
-from .model import ContactProblem, as_array
+from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping, require
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
@@ -186,17 +187,18 @@ def check_pairs_apart(problem: ContactProblem, u: fem.Function) -> None:
 
 
 def initial_acceleration(
-    problem: ContactProblem, a: fem.Function, stiffness, bc_dofs, petsc_options=None
+    problem: ContactProblem, a: fem.Function, stiffness, dirichlet, petsc_options=None
 ) -> None:
     """Solve M a0 = L(0) - ``stiffness`` for ``a`` (docs/method.md section 3), with a0 = 0
-    at the Dirichlet dofs ``bc_dofs`` and at the massless dofs of a redistributed mass.
+    at the Dirichlet dofs (``dirichlet``, a :class:`DirichletDofs`) and at the massless
+    dofs of a redistributed mass.
 
     ``stiffness(test)`` is the operator at u0 tested with ``test``."""
     V = problem.V
     test = ufl.TestFunction(V)
     F0 = problem.inertia(a, test) + stiffness(test) - problem.load(test)
     zero = fem.Function(V)
-    bcs = [fem.dirichletbc(zero, dofs) for dofs in bc_dofs]
+    bcs = dirichlet.boundary_conditions(zero)
     diagonal = problem.mass_diagonal()
     if diagonal is not None:  # massless nodes (redistributed mass): no acceleration of their own
         bcs.append(fem.dirichletbc(zero, problem.massless_dofs(nodes=True)))
@@ -273,13 +275,9 @@ class NitscheStepper(TimeLevels):
         problem.track_partners(self.u, self.v, self.a, self.w)  # contact between bodies
         self.newton_iterations, self.step_seconds = 0, 0.0
 
-        fdim = problem.mesh.topology.dim - 1
-        self._bc_dofs = [
-            (fem.locate_dofs_topological(V, fdim, problem.facets(tag)), value)
-            for tag, value in problem.dirichlet
-        ]
-        self._w_bc = fem.Function(V)
-        bcs = [fem.dirichletbc(self._w_bc, dofs) for dofs, _ in self._bc_dofs]
+        self._dirichlet = DirichletDofs(problem)
+        self._w_bc = fem.Function(V)  # the unknown's values at the Dirichlet dofs
+        bcs = self._dirichlet.boundary_conditions(self._w_bc)
         self._dt = dt_c = fem.Constant(problem.mesh, self.dt)  # the size of the step
         self.solver = self._step_solver(
             dt_c, bcs, petsc_options, reuse_jacobian, preconditioner_lag, guard_friction
@@ -338,23 +336,14 @@ class NitscheStepper(TimeLevels):
             self.scheme.residual(ContactTerms([pair], partner_term), *state, test)
             for pair in problem.pairs
         ]
-        bs = problem.V.dofmap.index_map_bs
-        nodes = [dofs for dofs, _ in self._bc_dofs]
-        dofs = np.concatenate([(n[:, None] * bs + np.arange(bs)).ravel() for n in nodes] or [[]])
-        return PairCoupling(problem.pairs, F, residuals, self.w, dofs.astype(np.int64))
-
-    def _set_dirichlet(self, target: np.ndarray, t: float) -> None:
-        """Write the Dirichlet values at time t into the dof array ``target``."""
-        bs = self.problem.V.dofmap.index_map_bs
-        for dofs, value in self._bc_dofs:
-            target.reshape(-1, bs)[dofs] = value.value_at(t)
+        return PairCoupling(problem.pairs, F, residuals, self.w, self._dirichlet.dofs)
 
     def _initialize(self, petsc_options) -> None:
         """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""
         problem, gdim = self.problem, self.problem.gdim
         interpolate_initial(self.u, problem.initial_displacement, gdim)
         interpolate_initial(self.v, problem.initial_velocity, gdim)
-        self._set_dirichlet(self.u.x.array, 0.0)
+        self._dirichlet.set_values(self.u.x.array, 0.0)
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
@@ -362,7 +351,7 @@ class NitscheStepper(TimeLevels):
             problem,
             self.a,
             lambda test: problem.operator(self.u, test, self.v),
-            [dofs for dofs, _ in self._bc_dofs],
+            self._dirichlet,
             petsc_options,
         )
 
@@ -390,10 +379,10 @@ class NitscheStepper(TimeLevels):
         self._set_step_size(dt)
         problem.set_time(scheme.equation_time(self.t, dt))
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
-        if self._bc_dofs:
+        if self._dirichlet:
             u_free, _, _ = scheme.kinematics(u, v, a, 0.0, dt)
             target = u_free.copy()
-            self._set_dirichlet(target, t_new)
+            self._dirichlet.set_values(target, t_new)
             self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
         self._energy_before = self._energy_theta()
         self.w.x.array[:] = a  # initial guess: the last acceleration
@@ -482,7 +471,7 @@ class NitscheStepper(TimeLevels):
         fields = {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material), ()),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
         }
         if self.problem.contacts:
             if self._contact_fields is None:  # compiled when first asked for

@@ -20,13 +20,18 @@ from nitsche_dolfinx import (
     make_scheme,
 )
 from nitsche_dolfinx.cases import bar_problem
-from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.diagnostics import PointValue
+from nitsche_dolfinx.meshes import NormalWithin, load_mesh, tag_facets
 from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
 from nitsche_dolfinx.shapes import check_body_mesh
 
 
 def bar(**kwargs):
     return bar_problem(nx=10, **kwargs)
+
+
+def _bar_u():
+    return Simulation(bar(), HybridScheme(), dt=0.1, t_end=0.2).u
 
 
 def ring(t_end=0.02, **problem):
@@ -84,6 +89,25 @@ API = {
     ),
     "absent-tag": (lambda: bar().add_dirichlet(42, 0.0), "facet tag 42"),
     "dirichlet-wrong-shape": (lambda: bar().add_dirichlet(2, [0.0, 0.0]), "[0.0, 0.0]"),
+    "dirichlet-component-2-in-2d": (
+        lambda: ring().add_dirichlet(3, 0.0, component=2),
+        "component=2",
+    ),
+    "dirichlet-component-1-in-1d": (
+        lambda: bar().add_dirichlet(2, 0.0, component=1),
+        "component=1",
+    ),
+    "dirichlet-component-vector": (
+        lambda: ring().add_dirichlet(3, [0.0, 0.0], component=0),
+        "[0.0, 0.0]",
+    ),
+    "facet-selector-chooses-nothing": (
+        lambda: tag_facets(bar().mesh, {5: lambda x: x[0] > 2.0}),
+        "selector of tag 5 chooses no boundary facet",
+    ),
+    "facet-selector-not-callable": (lambda: tag_facets(bar().mesh, {5: 1.0}), "got 1.0"),
+    "facet-normal-zero": (lambda: NormalWithin([0.0, 0.0], 5.0), "must not be zero"),
+    "point-probe-outside": (lambda: PointValue(_bar_u(), [2.0], 0), "[2.0] is in no cell"),
     "mixed-with-hybrid": (
         lambda: Simulation(bar(method="mixed"), HybridScheme(), dt=0.1, t_end=1.0),
         "Crank-Nicolson only",

@@ -31,6 +31,7 @@ from runs import (
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, read_history
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE, CheckpointError, RunInterrupted
+from nitsche_dolfinx.history import HISTORY_COLUMNS
 
 # -- 3./4. SIGINT and restart -----------------------------------------------------------------
 
@@ -257,11 +258,25 @@ def test_signal_handlers_are_restored_and_signal_stops_after_the_step(tmp_path):
     assert len(read_history(str(tmp_path / "out" / "history.csv"))["t"]) == 4
 
 
-def test_history_with_other_columns_is_not_continued(tmp_path):
+def test_history_columns_may_be_added_on_restart_not_left_out(tmp_path):
+    """A restart may write more columns: the rows up to its level (t = 0.3) hold nan there,
+    the later ones the values of an uninterrupted run; restarts.log names the change. A restart that
+    leaves a column of the history out is refused (its rows would end there)."""
     out = str(tmp_path / "out")
     disk(t_end=0.3).run(out=out, checkpoint_every=1)
-    with pytest.raises(CheckpointError, match="history columns"):
+    with pytest.raises(CheckpointError, match="history columns energy_theta,kinetic"):
         disk().run(out=out, columns=("t", "energy"), restart=True)
+    more = [*HISTORY_COLUMNS, "momentum_x", "momentum_y", "centre_of_mass_y"]
+    returned = disk(t_end=0.5).run(out=out, columns=more, restart=True)
+    reference = disk(t_end=0.5).run(out=str(tmp_path / "reference"), columns=more)
+    history = read_history(os.path.join(out, "history.csv"))
+    assert list(history) == more and len(history["t"]) == 6
+    for name in ("momentum_y", "centre_of_mass_y"):
+        assert np.all(np.isnan(history[name][:4])) and np.all(np.isnan(returned[name][:4]))
+    for name, first in (("energy", 0), ("momentum_y", 4), ("centre_of_mass_y", 4)):
+        difference = np.abs(history[name][first:] - reference[name][first:]).max()
+        assert difference <= 1e-12 * np.abs(reference[name]).max(), name
+    assert "history columns" in open(os.path.join(out, "restarts.log")).read()
 
 
 # -- the command line and the bar demo continue too ---------------------------------------------

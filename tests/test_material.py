@@ -6,10 +6,19 @@ import ufl
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import Material, compat
+from nitsche_dolfinx import (
+    ContactProblem,
+    CrankNicolson,
+    HybridScheme,
+    Material,
+    PlaneObstacle,
+    Simulation,
+    compat,
+)
 from nitsche_dolfinx.diagnostics import assemble_global
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values, bar_displacement
 from nitsche_dolfinx.material import sigma, von_mises
+from nitsche_dolfinx.meshes import BLOCK_CONTACT, block_mesh
 
 
 def test_lame_roundtrip():
@@ -72,3 +81,64 @@ def test_exact_bar_solution():
         assert energy == pytest.approx(BAR_ENERGY, rel=2e-3)
     assert bar_displacement(0.0, 0.3) == pytest.approx(0.5 - 0.15)
     assert np.all(bar_displacement(np.linspace(0, 6, 601), 0.0) >= 0)
+
+
+# -- the material as runtime constants: a sweep compiles its forms once ------------------
+
+
+@pytest.fixture
+def compilations(monkeypatch):
+    """A list that gets one entry per form or expression FFCx compiles (not those it finds
+    in its cache): ``_compile_objects`` is where every supported FFCx compiles."""
+    import ffcx.codegeneration.jit as jit
+
+    calls = []
+    compile_objects = jit._compile_objects
+
+    def counted(*args, **kwargs):
+        calls.append(args[2] if len(args) > 2 else kwargs.get("object_names"))
+        return compile_objects(*args, **kwargs)
+
+    monkeypatch.setattr(jit, "_compile_objects", counted)
+    return calls
+
+
+STRETCH = 1e-3
+
+
+def _run_block(material, method, mass, out):
+    """A block above the ground, stretched by u0 = (eps x, 0) and falling at speed 1: two
+    steps of every form of a run (fields written); returns the history."""
+    msh, tags = block_mesh(1.0, 0.5, 4, 2)
+    problem = ContactProblem(
+        msh, tags, material, gamma0=1e-3, gamma0_scaling="E", method=method, mass=mass
+    )
+    problem.add_obstacle(PlaneObstacle([0.0, -0.1], [0.0, 1.0]), BLOCK_CONTACT)
+    problem.add_body_force([0.0, -1.0])
+    problem.set_initial_conditions(
+        displacement=lambda x: np.vstack([STRETCH * x[0], 0 * x[0]]), velocity=[0.0, -1.0]
+    )
+    scheme = CrankNicolson() if method == "mixed" else HybridScheme()
+    return Simulation(problem, scheme, dt=0.01, t_end=0.02).run(out=out, output_every=1)
+
+
+@pytest.mark.parametrize(
+    "method, mass", [("nitsche", "consistent"), ("nitsche", "lumped"), ("mixed", "consistent")]
+)
+def test_another_material_compiles_nothing(compilations, mpi_tmp_path, method, mass):
+    """E, nu and rho (E also in gamma_h = gamma0 h / E, and in the mixed method's r) are
+    runtime constants: a second material, never seen by FFCx's cache as a number, reuses
+    every compiled form. Each run has its own material's energies at t = 0:
+    elastic = (lambda + 2 mu) eps^2 |Omega| / 2, kinetic = rho |Omega| / 2."""
+    seed = np.random.default_rng().uniform(1.0, 2.0)  # numbers no cache has compiled
+    materials = [Material(E=10.0, nu=0.25, rho=1.0), Material(E=37.0 * seed, nu=0.3, rho=seed)]
+    compiled = []
+    for index, material in enumerate(materials):
+        before = len(compilations)
+        history = _run_block(material, method, mass, f"{mpi_tmp_path}/{index}")
+        compiled.append(compilations[before:])
+        area = 0.5
+        elastic = 0.5 * (material.lmbda + 2 * material.mu) * STRETCH**2 * area
+        assert history["elastic"][0] == pytest.approx(elastic, rel=1e-12)
+        assert history["kinetic"][0] == pytest.approx(0.5 * material.rho * area, rel=1e-12)
+    assert not compiled[1], f"the second material compiled {compiled[1]}"
