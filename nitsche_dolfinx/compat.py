@@ -295,17 +295,24 @@ def has_mumps(comm) -> bool:
     return bool(comm.allreduce(found, op=MPI.LAND))
 
 
-def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> None:
+def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> str | None:
     """Set SNES's divergence tolerance: SNES stops when ||F|| > dtol ||F_0||.
 
     petsc4py >= 3.20 has a setter; before, only the options database knows it.
     The value -1 meant "no test" up to PETSc 3.21 and "default" after, so to
     switch the test off pass a huge number instead. Call before ``setFromOptions``.
+
+    Returns:
+        The name of the options-database entry set (None with the setter): the caller
+        removes it once ``setFromOptions`` has read it, since the database is bounded
+        (512 entries in PETSc 3.18) and every solver has a prefix of its own.
     """
     if hasattr(snes, "setDivergenceTolerance"):
         snes.setDivergenceTolerance(dtol)
-    else:
-        PETSc.Options()[f"{snes.getOptionsPrefix() or ''}snes_divergence_tolerance"] = dtol
+        return None
+    name = f"{snes.getOptionsPrefix() or ''}snes_divergence_tolerance"
+    PETSc.Options()[name] = dtol
+    return name
 
 
 # -- expressions -----------------------------------------------------------------------

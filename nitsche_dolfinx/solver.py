@@ -281,8 +281,8 @@ class SNESSolver:
             self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
         else:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
-        compat.set_divergence_tolerance(self.snes, 1.0e300)  # contact residuals may jump
-        inserted = self._insert_options(options)
+        divergence = compat.set_divergence_tolerance(self.snes, 1.0e300)  # residuals may jump
+        inserted = self._insert_options(options) + ([divergence] if divergence else [])
         # The database is global and bounded (512 entries in PETSc 3.18): take the
         # defaults out once read; the user's options stay until destroy(), since some
         # (monitors, converged-reason views) are read again at every solve.
