@@ -337,7 +337,9 @@ class NitscheStepper(TimeLevels):
         bs = problem.V.dofmap.index_map_bs
         nodes = [dofs for dofs, _ in self._bc_dofs]
         dofs = np.concatenate([(n[:, None] * bs + np.arange(bs)).ravel() for n in nodes] or [[]])
-        return PairCoupling(problem.pairs, F, residuals, self.w, dofs.astype(np.int64))
+        return PairCoupling(
+            problem.pairs, F, residuals, self.w, dofs.astype(np.int64), problem.symmetric_jacobian
+        )
 
     def _set_dirichlet(self, target: np.ndarray, t: float) -> None:
         """Write the Dirichlet values at time t into the dof array ``target``."""
