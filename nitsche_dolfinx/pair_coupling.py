@@ -68,14 +68,13 @@ class PairCoupling:
         self._Tg = self._g.duplicate()
         index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
         owned = np.asarray(bc_dofs, dtype=np.int64)
-        owned = owned[owned < index_map.size_local * bs]
-        self._bc_rows = (index_map.local_range[0] * bs + owned).astype(np.int32)
-        self._owned_bc = owned
-        self._C = self._coupling_pattern()
-        indptr, self._columns, _ = self._C.getValuesCSR()  # C's sparsity is fixed
-        self._rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+        self._owned_bc = owned[owned < index_map.size_local * bs]
+        self._sizes = ((index_map.size_local * bs, index_map.size_global * bs),) * 2
+        self._offset = index_map.local_range[0] * bs  # the global index of the first row
+        self._comm = V.mesh.comm
+        self._entries()
         self._known = np.zeros(len(self._rows), dtype=bool)  # entries the Jacobian holds
-        self._active = None  # the last coupling: (which entries of C are nonzero, values)
+        self._active = None  # the last coupling: (which entries are nonzero, their values)
         #: A zero matrix with the coupling entries of the last Jacobian that the sparsity
         #: of the Jacobian lacked (None: none); the solver widens its matrices by it.
         self.growth = None
@@ -87,7 +86,10 @@ class PairCoupling:
             x.copy(compat.petsc_vector(self.w))
             self.w.x.scatter_forward()
         for pair in self.pairs:
-            pair.update(None if x is None else [self.w])
+            if x is None:  # the state's (the iterate's is recomputed at each residual)
+                pair.update([f for f in pair.partners if f is not self.w])
+            else:
+                pair.update([self.w])
 
     def add_residual(self, b: PETSc.Vec) -> None:
         """b += sum of T^T G over the pairs (zero at the Dirichlet dofs)."""
@@ -126,31 +128,33 @@ class PairCoupling:
                 products[0].transpose(products[2])
         return products
 
-    def _coupling_pattern(self) -> PETSc.Mat:
-        """A zero matrix with the sparsity of every coupling term (of every pair)."""
-        total = None
+    def _entries(self) -> None:
+        """The entries of the coupling terms (the union of the products' sparsities, fixed:
+        the owned rows, global columns, in CSR order), where each product's entries go,
+        and which are not in a Dirichlet row or column."""
+        rows, columns = self._sizes[0][0], self._sizes[1][1]
+        keys = []
         for index in range(len(self.pairs)):
             for product in self._products(index):
-                if total is None:
-                    total = product.duplicate()
-                total.axpy(1.0, product, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        total.zeroEntries()
-        return total
+                indptr, product_columns, _ = product.getValuesCSR()
+                product_rows = np.repeat(np.arange(rows, dtype=np.int64), np.diff(indptr))
+                keys.append(product_rows * columns + product_columns)
+        every = np.unique(np.concatenate(keys))
+        self._places = [np.searchsorted(every, key) for key in keys]
+        self._rows, self._columns = every // columns, every % columns
+        bc = np.concatenate(self._comm.allgather(self._offset + self._owned_bc))
+        self._free = ~(np.isin(self._rows, self._owned_bc) | np.isin(self._columns, bc))
 
     def _coupling(self, inactive: bool) -> tuple[np.ndarray, np.ndarray]:
         """The coupling terms at the current iterate, with zero Dirichlet rows and columns
         (zero, without assembling, when the contact terms are ``inactive`` everywhere):
-        which entries of C are nonzero, and their values."""
-        if inactive:
-            return np.zeros(len(self._rows), dtype=bool), np.zeros(0)
-        C = self._C
-        C.zeroEntries()
-        for index in range(len(self.pairs)):
-            for product in self._products(index):
-                C.axpy(1.0, product, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        C.zeroRowsColumns(self._bc_rows, 0.0)
-        values = C.getValuesCSR()[2]
-        nonzero = values != 0.0
+        which entries are nonzero, and their values."""
+        values = np.zeros(len(self._rows))
+        if not inactive:
+            products = (p for index in range(len(self.pairs)) for p in self._products(index))
+            for product, places in zip(products, self._places):
+                values[places] += product.getValuesCSR()[2]  # no entry twice in a product
+        nonzero = (values != 0.0) & self._free
         return nonzero, values[nonzero]
 
     def jacobian_changed(self, inactive: bool = False) -> bool:
@@ -161,24 +165,25 @@ class PairCoupling:
             self.growth = None
         active, last = self._coupling(inactive), self._active
         same = last is not None and all(np.array_equal(a, b) for a, b in zip(active, last))
-        comm = self._C.comm.tompi4py()
-        changed = not comm.allreduce(same, op=MPI.LAND)
-        self._active = active
         new = active[0] & ~self._known
-        if comm.allreduce(bool(new.any()), op=MPI.LOR):
+        # whether every rank's coupling is the same, whether any rank's has new entries
+        flags = np.array([int(same), int(new.any())])
+        same, grows = self._comm.allreduce(flags, op=MPI.SUM)
+        self._active = active
+        if grows:
             self._known |= new
             self.growth = self._matrix(new, np.zeros(int(new.sum())))
-        return changed
+        return same < self._comm.size
 
     def _matrix(self, entries: np.ndarray, values: np.ndarray) -> PETSc.Mat:
-        """The matrix of the ``entries`` of C (a mask) with ``values``."""
-        matrix = PETSc.Mat().createAIJ(self._C.getSizes(), comm=self._C.comm)
+        """The matrix of the coupling's ``entries`` (a mask) with ``values``."""
+        matrix = PETSc.Mat().createAIJ(self._sizes, comm=self._comm)
         matrix.setPreallocationCSR((*self._csr(entries), values))
         return matrix
 
     def _csr(self, entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Row pointers (owned rows) and global columns of the ``entries`` of C (a mask)."""
-        counts = np.bincount(self._rows[entries], minlength=self._C.getLocalSize()[0])
+        """Row pointers (owned rows) and global columns of the ``entries`` (a mask)."""
+        counts = np.bincount(self._rows[entries], minlength=self._sizes[0][0])
         indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
         return indptr, self._columns[entries].astype(PETSc.IntType)
 
@@ -191,7 +196,7 @@ class PairCoupling:
         A.assemble()
 
     def petsc_objects(self) -> list:
-        objects = [self._g, self._Tg, self._C]
+        objects = [self._g, self._Tg]
         if self.growth is not None:
             objects.append(self.growth)
         for _, matrices, products in self._terms:
