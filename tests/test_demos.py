@@ -57,11 +57,12 @@ def test_bar_demo_bad_flags(tmp_path, flags, named):
 
 
 def test_two_bars_demo_contract(tmp_path):
-    """SPEC section 7: the columns, the momentum kept, the velocities exchanged."""
+    """SPEC section 7: the columns, the momentum kept, the velocities exchanged; the
+    energy figure and the picture of the bars in space and time."""
     out = tmp_path / "bars"
     result = run_demo(
-        "two_bars_1d.py", "--nx", "20", "--dt", "0.075", "--t-end", "3", "--no-plot",
-        "--quiet", "--out", str(out),
+        "two_bars_1d.py", "--nx", "20", "--dt", "0.075", "--t-end", "3", "--quiet",
+        "--out", str(out),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     with open(out / "history.csv") as f:
@@ -74,6 +75,9 @@ def test_two_bars_demo_contract(tmp_path):
     assert np.abs(history[:, 4]).max() < 1e-8
     assert history[-1, 6] > 0.45 and history[-1, 5] < -0.45  # exchanged
     assert "exit velocities" in result.stdout
+    pytest.importorskip("matplotlib")
+    for figure in ("energy.png", "worldlines.png", "two_bars_1d.png"):
+        assert (out / figure).stat().st_size > 10_000, figure
 
 
 def test_two_disks_demo_contract(tmp_path):
