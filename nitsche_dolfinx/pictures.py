@@ -140,7 +140,9 @@ def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str, ground
     }
     text = f"{title}, t = {snapshot.t:.4g}"
     if dim == 3:
-        plotter = _plot_3d(pyvista, deformed, surface, edges, colours, bar, text, ground)
+        plotter = _plot_3d(
+            pyvista, grid.bounds, surface, deformed, edges, colours, bar, text, ground
+        )
     else:
         plotter = _plot_2d(pyvista, surface, edges, colours, bar, text, ground)
     plotter.screenshot(path)
@@ -200,12 +202,12 @@ def _camera(bounds, ground: bool) -> list:
     return [tuple(centre + 3.75 * radius * side / np.linalg.norm(side)), tuple(centre), (0, 0, 1)]
 
 
-def _plot_3d(pyvista, deformed, surface, edges, colours, bar, text, ground):
+def _plot_3d(pyvista, bounds, surface, deformed, edges, colours, bar, text, ground):
     """The body from aside (on the ground), and its far half with the cut through the
-    centre."""
+    centre (of the reference ``bounds``)."""
     plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
     plane = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
-    camera = _camera(deformed.bounds, ground)
+    camera = _camera(bounds, ground)
     middle = np.array(camera[1])
     plotter.subplot(0, 0)
     plotter.add_mesh(surface, show_scalar_bar=False, **colours)
@@ -224,7 +226,7 @@ def _plot_3d(pyvista, deformed, surface, edges, colours, bar, text, ground):
     if ground:
         plotter.add_mesh(plane, color="lightgray")
     plotter.camera_position = camera
-    plotter.add_text(f"cut through the centre, y = {cut_at[1]:.3g}", font_size=11)
+    plotter.add_text(f"cut through the centre, y = {cut_at[1] + 0.0:.4g}", font_size=11)
     return plotter
 
 
