@@ -22,7 +22,9 @@
 #   `ContactProblem.add_contact_pair` (`nitsche_dolfinx.twobody.two_bars_problem`);
 # - record the total momentum and each bar's mean velocity;
 # - measure the errors of the contact duration, the exit velocities and the
-#   energy under refinement, at a fixed ratio tau / h (`--refine N`).
+#   energy under refinement, at a fixed ratio tau / h (`--refine N`);
+# - draw the energies and the bars in space and time, coloured by their velocity
+#   (`pictures.Worldlines`, a callback of the run).
 #
 # The pair is Nitsche's contact law of the rigid obstacle with the relative
 # displacement of the two ends; unbiased, each end is slave in turn with weight
