@@ -41,10 +41,12 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, latex_number
 from nitsche_dolfinx.shapes import check_body_mesh
 from nitsche_dolfinx.twobody import ball_on_slab_problem
 
+PICTURE_TIME = 8.0  # the ball pressed into the slab
 # -
 
 
@@ -60,7 +62,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--v0", type=finite_float, default=1.0, help="the ball's initial speed")
     parser.add_argument("--out", default=os.path.join("out", "ball_on_slab_3d"))
     add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="no energy figure")
+    parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
     return parser
 
 
@@ -73,17 +75,19 @@ def main(argv: list[str] | None = None) -> None:
         check_body_mesh(args.mesh_size, order=2, radius=20.0, dim=args.dim)
         check_output_folder(args.out)
         problem, _ = ball_on_slab_problem(
-            dim=args.dim, mesh_size=args.mesh_size, v0=args.v0, gamma0=args.gamma0
-        )
+            dim=args.dim, mesh_size=args.mesh_size, v0=args.v0, gamma0=args.gamma0,
+            nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+        )  # fmt: skip
         simulation = Simulation(
             problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
             progress=not args.quiet, max_step_cuts=args.max_step_cuts,
         )  # fmt: skip
         momentum = [f"momentum_{c}" for c in "xyz"[: args.dim]]
+        snapshot = Snapshot(at=PICTURE_TIME)  # the fields gathered on rank 0 for the picture
         start = time.perf_counter()
         history = simulation.run(
             out=args.out, columns=(*HISTORY_COLUMNS[:11], *momentum),
-            output_every=args.output_every,
+            output_every=args.output_every, callback=snapshot,
         )  # fmt: skip
         seconds = MPI.COMM_WORLD.allreduce(time.perf_counter() - start, op=MPI.MAX)
     if MPI.COMM_WORLD.rank != 0:
@@ -106,6 +110,9 @@ def main(argv: list[str] | None = None) -> None:
         )
         energy_figure([history], ["ball on slab"], ["tab:blue"], title,
                       os.path.join(args.out, "energy.png"))  # fmt: skip
+        picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")
+        body = "ball on a slab" if args.dim == 3 else "disk on a plate"
+        render_deformed(snapshot, args.dim, body, picture, ground=False)
 
 
 if __name__ == "__main__":

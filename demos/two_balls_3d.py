@@ -48,10 +48,12 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, latex_number
 from nitsche_dolfinx.shapes import ball_mesh, check_body_mesh, disk_mesh
 from nitsche_dolfinx.twobody import two_bodies_problem
 
+PICTURE_TIME = 8.0  # about the largest compression, at the default v0 and gap
 # -
 
 
@@ -76,7 +78,7 @@ def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
         help="also run one body on the rigid plane of symmetry with gamma0/2 (OUT/plane)",
     )  # fmt: skip
     add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="no energy figure")
+    parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
     return parser
 
 
@@ -91,14 +93,15 @@ def check_arguments(args, dim: int) -> None:
 # ## The pair and the body on a plane
 
 
-def run_pair(args, dim: int):
+def run_pair(args, dim: int, snapshot: Snapshot):
     problem, _ = two_bodies_problem(
         dim=dim, mesh_size=args.mesh_size, v0=args.v0, gap=args.gap, degree=args.degree,
         gamma0=args.gamma0, nitsche_theta=args.nitsche_theta, variant=args.variant,
-        along_axis=args.pairing == "axis",
+        along_axis=args.pairing == "axis", gamma0_scaling=args.gamma0_scaling,
     )  # fmt: skip
     momentum = [f"momentum_{c}" for c in "xyz"[:dim]]
-    return _run(args, problem, args.out, (*HISTORY_COLUMNS[:11], *momentum), args.quiet)
+    columns = (*HISTORY_COLUMNS[:11], *momentum)
+    return _run(args, problem, args.out, columns, args.quiet, snapshot)
 
 
 def run_on_plane(args, dim: int):
@@ -108,7 +111,7 @@ def run_on_plane(args, dim: int):
     mesh, tags = (ball_mesh if dim == 3 else disk_mesh)(args.mesh_size, 2, 20.0, center)
     problem = ContactProblem(
         mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), args.degree, args.gamma0 / 2,
-        args.nitsche_theta,
+        args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
     )  # fmt: skip
     up = [0.0] * dim
     up[-1] = 1.0
@@ -117,13 +120,15 @@ def run_on_plane(args, dim: int):
     return _run(args, problem, os.path.join(args.out, "plane"), HISTORY_COLUMNS[:11], True)
 
 
-def _run(args, problem, out, columns, quiet):
+def _run(args, problem, out, columns, quiet, callback=None):
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
         progress=not quiet, max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     start = time.perf_counter()
-    history = simulation.run(out=out, columns=columns, output_every=args.output_every)
+    history = simulation.run(
+        out=out, columns=columns, output_every=args.output_every, callback=callback
+    )
     seconds = MPI.COMM_WORLD.allreduce(time.perf_counter() - start, op=MPI.MAX)
     return history, simulation.dofs, seconds
 
@@ -131,9 +136,10 @@ def _run(args, problem, out, columns, quiet):
 def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> None:
     parser = make_parser(dim, body)
     args = parser.parse_args(argv)
+    snapshot = Snapshot(at=PICTURE_TIME)  # the fields gathered on rank 0 for the picture
     with one_line_errors(parser):
         check_arguments(args, dim)
-        pair, dofs, seconds = run_pair(args, dim)
+        pair, dofs, seconds = run_pair(args, dim, snapshot)
         plane = run_on_plane(args, dim) if args.compare else None
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -169,6 +175,8 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
         )
         energy_figure([pair], [f"two {body}s"], ["tab:blue"], title,
                       os.path.join(args.out, "energy.png"))  # fmt: skip
+        picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")
+        render_deformed(snapshot, dim, f"two {body}s, {args.variant}", picture, ground=False)
 
 
 if __name__ == "__main__":

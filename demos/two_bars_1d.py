@@ -22,7 +22,9 @@
 #   `ContactProblem.add_contact_pair` (`nitsche_dolfinx.twobody.two_bars_problem`);
 # - record the total momentum and each bar's mean velocity;
 # - measure the errors of the contact duration, the exit velocities and the
-#   energy under refinement, at a fixed ratio tau / h (`--refine N`).
+#   energy under refinement, at a fixed ratio tau / h (`--refine N`);
+# - draw the energies and the bars in space and time, coloured by their velocity
+#   (`pictures.Worldlines`, a callback of the run).
 #
 # The pair is Nitsche's contact law of the rigid obstacle with the relative
 # displacement of the two ends; unbiased, each end is slave in turn with weight
@@ -49,7 +51,8 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.history import History
 from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.plotting import pyplot
+from nitsche_dolfinx.pictures import Worldlines, render_worldlines
+from nitsche_dolfinx.plotting import energy_figure, latex_number, pyplot
 from nitsche_dolfinx.twobody import (
     LOWER_BODY,
     UPPER_BODY,
@@ -57,10 +60,11 @@ from nitsche_dolfinx.twobody import (
     two_bars_problem,
 )
 
-#: The columns of history.csv (the output contract of the two-body demos).
+#: The columns of history.csv (the output contract of the two-body demos), then the parts
+#: of the energy for its figure.
 COLUMNS = (
     "t", "energy", "energy_theta", "contact_force", "momentum", "v_left", "v_right",
-    "newton_iterations",
+    "newton_iterations", "kinetic", "elastic", "potential",
 )  # fmt: skip
 # -
 
@@ -101,17 +105,20 @@ def check_arguments(args) -> None:
 # $\sum_i (M v)_i$ and the mean velocity of each bar.
 
 
-def run(args, nx: int, dt: float, out: str | None, quiet: bool) -> History:
+def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -> History:
     problem, cells = two_bars_problem(
         nx=nx, v0=args.v0, gap=args.gap, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, variant=args.variant,
+        gamma0_scaling=args.gamma0_scaling,
     )  # fmt: skip
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=dt, t_end=args.t_end, progress=not quiet,
         max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     add_body_velocity_probes(simulation, cells, {LOWER_BODY: "v_left", UPPER_BODY: "v_right"})
-    return simulation.run(out=out, columns=COLUMNS, output_every=args.output_every)
+    return simulation.run(
+        out=out, columns=COLUMNS, output_every=args.output_every, callback=callback
+    )
 
 
 # ## Against the exact solution
@@ -190,7 +197,8 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     with one_line_errors(parser):
         check_arguments(args)
-        history = run(args, args.nx, args.dt, args.out, args.quiet)
+        worldlines = Worldlines()  # every node at every time level, for the picture
+        history = run(args, args.nx, args.dt, args.out, args.quiet, worldlines)
         rows = refinement(args) if args.refine else []
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -211,6 +219,14 @@ def main(argv: list[str] | None = None) -> None:
         print(f"refinement: {path}")
     if not args.no_plot:
         plot(history, args, os.path.join(args.out, "two_bars_1d.png"))
+        title = (
+            rf"two bars, {args.variant}, $\gamma_0 = {latex_number(args.gamma0)}$, "
+            rf"{args.nx} cells each, $\tau = {latex_number(args.dt)}$"
+        )
+        energy_figure([history], ["two bars"], ["tab:blue"], title,
+                      os.path.join(args.out, "energy.png"))  # fmt: skip
+        path = os.path.join(args.out, "worldlines.png")
+        render_worldlines(worldlines, f"two bars in space and time: {title}", path)
 
 
 if __name__ == "__main__":

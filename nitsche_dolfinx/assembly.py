@@ -166,12 +166,12 @@ class AffineCellSplit:
         if self.B is not None:
             A.axpy(1.0, self.B, same)
 
-    def add_into(self, A: PETSc.Mat) -> None:
-        """A += K_bc + B, for an A whose sparsity holds theirs (and more)."""
-        subset = PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN
-        A.axpy(1.0, self.K_bc, subset)
-        if self.B is not None:
-            A.axpy(1.0, self.B, subset)
+    def widen(self, pattern: PETSc.Mat) -> None:
+        """Add the entries of ``pattern`` (zeros) to the sparsity of K_bc and B: terms of
+        the Jacobian beyond the forms' sparsity (the coupling between two bodies)."""
+        for matrix in (self.K_bc, self.B, self.B_last):
+            if isinstance(matrix, PETSc.Mat):
+                matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
 
     def petsc_objects(self) -> list:
         objects = [self.K, self.K_bc, self.F0, self._Kx]

@@ -114,6 +114,13 @@ def _total(forms: list, zero):
     return sum(forms[1:], forms[0]) if forms else zero
 
 
+def _update_partners(model, u: fem.Function) -> None:
+    """The partner of ``u`` across every contact pair: the pairs' terms of the diagnostics
+    read no other."""
+    for pair in model.pairs:
+        pair.update([u])
+
+
 class Penetration:
     """The largest penetration u_n - g over every Gamma_C of a model, at the dofs.
 
@@ -124,7 +131,7 @@ class Penetration:
 
     def __init__(self, model, u: fem.Function):
         self.comm = model.mesh.comm
-        self.model = model
+        self.model, self.u = model, u
         # u_n - g at the dofs of Gamma_C, interpolated into a scalar space
         self._fields = []
         if model.contacts:
@@ -139,7 +146,7 @@ class Penetration:
     def max(self) -> float:
         """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""
         local = -np.inf
-        self.model.update_partners()
+        _update_partners(self.model, self.u)
         for field, expression, dofs in self._fields:
             field.interpolate(expression)
             if len(dofs):
@@ -244,7 +251,7 @@ class Diagnostics:
 
     def compute(self) -> dict[str, float]:
         """All diagnostics at the current state, identical on every rank."""
-        self.model.update_partners()
+        _update_partners(self.model, self.u)
         local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
         values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
         values["kinetic"], momentum = self.moments.kinetic_and_momentum(self.v)

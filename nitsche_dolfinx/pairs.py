@@ -25,13 +25,13 @@ import basix
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 from ufl.algorithms import extract_coefficients
 
 from . import compat
 from .contact import NitscheContact
+from .pair_coupling import PairCoupling
 
 __all__ = ["CONTACT_PAIR_VARIANTS", "PairContact", "PairCoupling", "Pairing"]
 
@@ -41,6 +41,7 @@ CONTACT_PAIR_VARIANTS = ("unbiased", "biased")
 
 _NEWTON_STEPS = 8  # Gauss-Newton steps of a closest-point projection onto a curved facet
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
+_ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
 
 
 def _basix_cell(mesh):
@@ -233,7 +234,11 @@ class Pairing:
         for q in mine:
             cell = master.cells[facet[q]]
             values = master.element.tabulate(0, X[q][None, :])[0, 0, :, 0]
-            columns = index_map.local_to_global(dofmap[cell].astype(np.int32))
+            # the basis functions of the nodes off the facet vanish on it, and at a node
+            # all but one: round-off, left out so that T couples only the nodes it pairs
+            kept = np.abs(values) > _ROUNDOFF
+            values = values[kept]
+            columns = index_map.local_to_global(dofmap[cell][kept].astype(np.int32))
             point = master._point(facet[q], self._xi(master, facet[q], X[q]))[0]
             rows = (every_node[q] * bs + np.arange(bs)).astype(PETSc.IntType)
             for component in range(bs):
@@ -308,10 +313,10 @@ class PairContact(NitscheContact):
             if function not in self.partners:
                 self.partners[function] = fem.Function(function.function_space)
 
-    def update(self) -> None:
-        """Recompute every partner from its Function."""
-        for function, partner in self.partners.items():
-            self.pairing.apply(function, partner)
+    def update(self, functions=None) -> None:
+        """Recompute the partners of ``functions`` (default: of every tracked Function)."""
+        for function in self.partners if functions is None else functions:
+            self.pairing.apply(function, self.partners[function])
 
     def partner(self, expression):
         """The expression with every tracked Function f replaced by its partner T f."""
@@ -358,150 +363,3 @@ class PairContact(NitscheContact):
 
     def area(self, u):
         return self.weight * super().area(u)
-
-
-class PairCoupling:
-    """What a step's SNES needs beyond its UFL forms for contact pairs: the partners of
-    the iterate, the residual T^T G and the Jacobian's coupling terms (docs/method.md
-    section 11). Used by :class:`~nitsche_dolfinx.solver.SNESSolver` (``coupling``).
-
-    The matrices of the coupling terms and their products with T are made once and
-    filled again at each Jacobian; while the contact terms are inactive everywhere the
-    coupling is zero and is not assembled.
-
-    Args:
-        pairs: The :class:`PairContact` halves of the problem.
-        F: The step's residual form (with every pair's slave terms).
-        partner_residuals: For each pair, its partner-tested form G (test v for T v).
-        w: The unknown.
-        bc_dofs: Local (unblocked) indices of the Dirichlet dofs of ``w``.
-    """
-
-    def __init__(self, pairs, F, partner_residuals, w: fem.Function, bc_dofs: np.ndarray):
-        V = w.function_space
-        trial = ufl.TrialFunction(V)
-        self.pairs, self.w = list(pairs), w
-        self._G = [fem.form(G) for G in partner_residuals]
-        self._terms = []  # per pair: the three derivative forms, their matrices, products
-        for pair, G in zip(self.pairs, partner_residuals):
-            w_partner = pair.partners[w]
-            forms = [
-                fem.form(form)
-                for form in (
-                    ufl.derivative(F, w_partner, trial),
-                    ufl.derivative(G, w, trial),
-                    ufl.derivative(G, w_partner, trial),
-                )
-            ]
-            self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
-        self._g = compat.create_vector(V)
-        self._Tg = self._g.duplicate()
-        index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
-        owned = np.asarray(bc_dofs, dtype=np.int64)
-        owned = owned[owned < index_map.size_local * bs]
-        self._bc_rows = (index_map.local_range[0] * bs + owned).astype(np.int32)
-        self._owned_bc = owned
-        self._C = self._coupling_pattern()
-        self._C_last = None  # the coupling of the last Jacobian (None: none yet)
-        self._zero = False  # whether the last coupling was zero (inactive contact)
-
-    def update(self, x: PETSc.Vec | None = None) -> None:
-        """The partners of the state, and of the iterate ``x`` if given."""
-        if x is not None:
-            x.copy(compat.petsc_vector(self.w))
-            self.w.x.scatter_forward()
-        for pair in self.pairs:
-            pair.update()
-
-    def add_residual(self, b: PETSc.Vec) -> None:
-        """b += sum of T^T G over the pairs (zero at the Dirichlet dofs)."""
-        for pair, G in zip(self.pairs, self._G):
-            with self._g.localForm() as local:
-                local.set(0.0)
-            fem_petsc.assemble_vector(self._g, G)
-            self._g.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            pair.pairing.T.multTranspose(self._g, self._Tg)
-            self._Tg.array[self._owned_bc] = 0.0
-            b.axpy(1.0, self._Tg)
-
-    def _products(self, index: int):
-        """Assemble pair ``index``'s derivative matrices and form their products with T
-        (into the product matrices of the last call, once they exist)."""
-        forms, matrices, products = self._terms[index]
-        T = self.pairs[index].pairing.T
-        for form, matrix in zip(forms, matrices):
-            matrix.zeroEntries()
-            fem_petsc.assemble_matrix(matrix, form)
-            matrix.assemble()
-        F_w, G_w, G_ww = matrices
-        if products is None:
-            products = [F_w.matMult(T), T.transposeMatMult(G_w), G_ww.PtAP(T)]
-            self._terms[index] = (forms, matrices, products)
-        else:
-            F_w.matMult(T, products[0])
-            T.transposeMatMult(G_w, products[1])
-            G_ww.PtAP(T, products[2])
-        return products
-
-    def _coupling_pattern(self) -> PETSc.Mat:
-        """A zero matrix with the sparsity of every coupling term."""
-        total = None
-        for index in range(len(self.pairs)):
-            for product in self._products(index):
-                if total is None:
-                    total = product.duplicate()
-                total.axpy(1.0, product, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        total.zeroEntries()
-        return total
-
-    def _fill(self) -> None:
-        """The coupling terms at the current iterate into C, with zero Dirichlet rows and
-        columns."""
-        C = self._C
-        C.zeroEntries()
-        for index in range(len(self.pairs)):
-            for product in self._products(index):
-                C.axpy(1.0, product, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        C.zeroRowsColumns(self._bc_rows, 0.0)
-
-    def union_pattern(self, template: PETSc.Mat) -> PETSc.Mat:
-        """A zero matrix with the sparsity of ``template`` and of every coupling term."""
-        pattern = template.duplicate()
-        pattern.axpy(1.0, self._C, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        pattern.zeroEntries()
-        return pattern
-
-    def jacobian_changed(self, inactive: bool = False) -> bool:
-        """Assemble the coupling terms (zero, without assembling, when the contact terms
-        are ``inactive`` everywhere); True if they differ from the last ones."""
-        if inactive:
-            changed, self._zero = not self._zero or self._C_last is None, True
-            if changed:
-                self._C.zeroEntries()
-                self._remember()
-            return changed
-        self._zero = False
-        self._fill()
-        if self._C_last is not None and self._C.equal(self._C_last):
-            return False
-        self._remember()
-        return True
-
-    def _remember(self) -> None:
-        if self._C_last is None:
-            self._C_last = self._C.copy()
-        else:
-            self._C.copy(self._C_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-
-    def add_jacobian(self, A: PETSc.Mat) -> None:
-        """A += the coupling terms of the last :meth:`jacobian_changed`."""
-        A.axpy(1.0, self._C, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-
-    def petsc_objects(self) -> list:
-        objects = [self._g, self._Tg, self._C]
-        if self._C_last is not None:
-            objects.append(self._C_last)
-        for _, matrices, products in self._terms:
-            objects.extend(matrices)
-            objects.extend(products or [])
-        return objects

@@ -1,5 +1,5 @@
 """Pictures of the deformed body coloured by von Mises or by the contact pressure, from any
-MPI run (pyvista, optional).
+MPI run (pyvista, optional), and of bars in space and time (matplotlib).
 
 :class:`Snapshot` is a :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>`
 callback that gathers the fields of one time level on rank 0;
@@ -14,6 +14,9 @@ drawn curved, with their edges. Used by the impact demos::
 written ``solution.xdmf`` (docs/method.md section 6), from the file alone::
 
     render_contact_pressure("out/ball_3d/solution.xdmf", 18.0, "contact_pressure_t18.png")
+
+In 1D, :class:`Worldlines` keeps every time level and :func:`render_worldlines` draws
+the bars where they are (x + u) against t, coloured by their velocity.
 """
 
 from __future__ import annotations
@@ -26,7 +29,13 @@ from dolfinx import fem
 from . import compat
 from .material import von_mises
 
-__all__ = ["Snapshot", "render_contact_pressure", "render_deformed"]
+__all__ = [
+    "Snapshot",
+    "Worldlines",
+    "render_contact_pressure",
+    "render_deformed",
+    "render_worldlines",
+]
 
 
 class Snapshot:
@@ -109,19 +118,23 @@ def _with_pyvista(draw, path: str) -> None:
     print(f"picture: {path}")
 
 
-def render_deformed(snapshot: Snapshot, dim: int, title: str, path: str) -> None:
+def render_deformed(
+    snapshot: Snapshot, dim: int, title: str, path: str, ground: bool = True
+) -> None:
     """Draw the deformed body coloured by von Mises into ``path`` (rank 0).
 
-    pyvista is optional and renders off screen; if it is missing or rendering
-    fails, one line says so and the demo goes on.
+    ``ground``: the body of the impact test on the rigid plane (drawn, and the camera
+    set for it); False: whatever bodies the mesh holds, framed by their bounds (two
+    bodies colliding, a ball on a slab). pyvista is optional and renders off screen; if
+    it is missing or rendering fails, one line says so and the demo goes on.
     """
     if snapshot.grid is None:
         print(f"no picture: this run did not compute the time level t = {snapshot.at:g}")
         return
-    _with_pyvista(lambda pyvista: _render(pyvista, snapshot, dim, title, path), path)
+    _with_pyvista(lambda pyvista: _render(pyvista, snapshot, dim, title, path, ground), path)
 
 
-def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> None:
+def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str, ground: bool) -> None:
     cells, cell_types, points, displacement, von_mises = snapshot.grid
     grid = pyvista.UnstructuredGrid(cells, cell_types, points)
     grid.point_data["displacement"] = displacement
@@ -144,9 +157,11 @@ def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str) -> Non
     }
     text = f"{title}, t = {snapshot.t:.4g}"
     if dim == 3:
-        plotter = _plot_3d(pyvista, deformed, surface, edges, colours, bar, text)
+        plotter = _plot_3d(
+            pyvista, grid.bounds, surface, deformed, edges, colours, bar, text, ground
+        )
     else:
-        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text)
+        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text, ground)
     plotter.screenshot(path)
     plotter.close()
 
@@ -193,38 +208,55 @@ def _curved_edges(pyvista, cells: np.ndarray, points: np.ndarray, samples: int):
     return pyvista.PolyData(polyline_points, lines=polylines)
 
 
-def _plot_3d(pyvista, deformed, surface, edges, colours, bar, text):
-    """The ball from aside on the ground, and its far half with the cut through the centre."""
+def _camera(bounds, ground: bool) -> list:
+    """The view of the impact test's ball (``ground``), or one from the same side framing
+    ``bounds`` (xmin, xmax, ymin, ymax, zmin, zmax)."""
+    if ground:
+        return [(80.0, -100.0, 38.0), (0.0, 0.0, 13.0), (0.0, 0.0, 1.0)]
+    low, high = np.array(bounds[0::2]), np.array(bounds[1::2])
+    centre, radius = (low + high) / 2, np.linalg.norm(high - low) / 2
+    side = np.array([80.0, -100.0, 25.0])  # the direction of the ball's view
+    return [tuple(centre + 3.75 * radius * side / np.linalg.norm(side)), tuple(centre), (0, 0, 1)]
+
+
+def _plot_3d(pyvista, bounds, surface, deformed, edges, colours, bar, text, ground):
+    """The body from aside (on the ground), and its far half with the cut through the
+    centre (of the reference ``bounds``)."""
     plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
-    ground = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
-    camera = [(80.0, -100.0, 38.0), (0.0, 0.0, 13.0), (0.0, 0.0, 1.0)]
+    plane = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
+    camera = _camera(bounds, ground)
+    middle = np.array(camera[1])
     plotter.subplot(0, 0)
     plotter.add_mesh(surface, show_scalar_bar=False, **colours)
     plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
-    plotter.add_mesh(ground, color="lightgray")
+    if ground:
+        plotter.add_mesh(plane, color="lightgray")
     plotter.camera_position = camera
     plotter.add_text(text, font_size=11)
-    # the far half of the surface and the cut through the centre, y = 0
+    # the far half of the surface and the cut through the centre
     plotter.subplot(0, 1)
-    far_half = surface.clip(normal=(0, -1, 0), origin=(0, 0, 0))
+    cut_at = (0, 0, 0) if ground else (0, middle[1], 0)
+    far_half = surface.clip(normal=(0, -1, 0), origin=cut_at)
     plotter.add_mesh(far_half, show_scalar_bar=False, **colours)
-    cut = deformed.slice(normal=(0, 1, 0), origin=(0, 0, 0))
+    cut = deformed.slice(normal=(0, 1, 0), origin=cut_at)
     plotter.add_mesh(cut, scalar_bar_args=bar, **colours)
-    plotter.add_mesh(ground, color="lightgray")
+    if ground:
+        plotter.add_mesh(plane, color="lightgray")
     plotter.camera_position = camera
-    plotter.add_text("cut through the centre, y = 0", font_size=11)
+    plotter.add_text(f"cut through the centre, y = {cut_at[1] + 0.0:.4g}", font_size=11)
     return plotter
 
 
-def _plot_2d(pyvista, surface, edges, colours, bar, text):
-    """The disk on the ground line, seen along z."""
+def _plot_2d(pyvista, surface, edges, colours, bar, text, ground):
+    """The body on the ground line (or the bodies), seen along z."""
     plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 900))
     plotter.add_mesh(surface, scalar_bar_args=bar, **colours)
     plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
-    ground = pyvista.Line((-32.0, 0.0, 0.0), (32.0, 0.0, 0.0))
-    plotter.add_mesh(ground, color="black", line_width=4)
+    if ground:
+        line = pyvista.Line((-32.0, 0.0, 0.0), (32.0, 0.0, 0.0))
+        plotter.add_mesh(line, color="black", line_width=4)
     plotter.view_xy()
-    plotter.camera.zoom(1.35)
+    plotter.camera.zoom(1.35 if ground else 0.9)  # clear of the colour bar
     plotter.add_text(text, font_size=11)
     return plotter
 
@@ -276,7 +308,7 @@ def _render_pressure(pyvista, level, title: str, path: str) -> None:
     }
     text = f"{title}, t = {level.t:.4g}: contact pressure on Gamma_C"
     if level.points.shape[1] == 2 or not np.any(points[:, 2]):
-        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text)
+        plotter = _plot_2d(pyvista, surface, edges, colours, bar, text, ground=True)
     else:
         plotter = _plot_contact_zone(pyvista, surface, edges, colours, bar, text)
     plotter.screenshot(path)
@@ -303,3 +335,57 @@ def _plot_contact_zone(pyvista, surface, edges, colours, bar, text):
         plotter.camera_position = camera
         plotter.add_text(label, font_size=11)
     return plotter
+
+
+class Worldlines:
+    """A ``Simulation.run`` callback that keeps, on rank 0, the position x + u and the
+    velocity of every node of a 1D mesh at every time level (the nodes sorted by x)."""
+
+    def __init__(self):
+        self.t, self.position, self.velocity = [], [], []
+        self._x = None
+
+    def __call__(self, simulation) -> None:
+        V = simulation.problem.V
+        if self._x is None:
+            from .checkpoint import node_coordinates
+
+            self._x = node_coordinates(V)[:, 0]
+        owned = V.dofmap.index_map.size_local
+        bs = V.dofmap.index_map_bs
+        u, v = (f.x.array.reshape(-1, bs)[:owned, 0] for f in (simulation.u, simulation.v))
+        parts = V.mesh.comm.gather((self._x[:owned], u, v), root=0)
+        if V.mesh.comm.rank != 0:
+            return
+        x, u, v = (np.concatenate(column) for column in zip(*parts))
+        order = np.argsort(x, kind="stable")
+        self.t.append(simulation.t)
+        self.position.append((x + u)[order])
+        self.velocity.append(v[order])
+        self.x = x[order]
+
+
+def render_worldlines(worldlines: Worldlines, title: str, path: str) -> None:
+    """Draw the bars of ``worldlines`` where they are (x + u) against t, coloured by their
+    velocity, into ``path`` (rank 0); a bar ends where two neighbouring nodes are farther
+    apart in the reference configuration than twice the median spacing."""
+    from .plotting import pyplot, save
+
+    plt = pyplot()
+    if plt is None or not worldlines.t:
+        return
+    t = np.asarray(worldlines.t)
+    position, velocity = np.array(worldlines.position), np.array(worldlines.velocity)
+    spacing = np.diff(worldlines.x)
+    ends = np.flatnonzero(spacing > 2 * np.median(spacing)) + 1
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    top = np.abs(velocity).max()
+    for nodes in np.split(np.arange(len(worldlines.x)), ends):
+        X, T = position[:, nodes], np.repeat(t[:, None], len(nodes), axis=1)
+        image = ax.pcolormesh(X, T, velocity[:, nodes], shading="gouraud", cmap="coolwarm",
+                              vmin=-top, vmax=top)  # fmt: skip
+    fig.colorbar(image, ax=ax, label="velocity")
+    ax.set_xlabel("position $x + u$")
+    ax.set_ylabel("time $t$")
+    ax.set_title(title, fontsize="medium")
+    save(fig, path)

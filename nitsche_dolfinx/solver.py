@@ -186,9 +186,10 @@ class SNESSolver:
             For contact, the normal force ``int [P_gamma(u)]_+ q``. While it is zero
             on every cell, the facet Jacobian is not re-assembled.
         coupling: With ``affine_cell_terms``: terms of F and J beyond the UFL forms, for
-            contact between two bodies (:class:`~nitsche_dolfinx.pairs.PairCoupling`):
+            contact between two bodies (:class:`~nitsche_dolfinx.pair_coupling.PairCoupling`):
             ``update(x)`` before each residual, ``add_residual(b)``, and
-            ``jacobian_changed()`` / ``add_jacobian(A)`` / ``union_pattern(matrix)``.
+            ``jacobian_changed()`` / ``add_jacobian(A)``, and ``growth``: the entries
+            the sparsity of the Jacobian lacks (the pairs in contact for the first time).
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
             Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
@@ -244,6 +245,7 @@ class SNESSolver:
         if coupling is not None and self._split is None:
             raise ValueError("contact between bodies needs affine_cell_terms=True")
         self._coupling = coupling
+        self._symmetric, self._near_nullspace = symmetric, None
         self._A = self._new_matrix(symmetric)
         if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
             self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
@@ -312,9 +314,6 @@ class SNESSolver:
             matrix = self._split.K_bc.duplicate()  # zero values
         else:
             matrix = self.J_forms.create_matrix()
-        if self._coupling is not None:  # and the coupling between the bodies' dofs
-            template, matrix = matrix, self._coupling.union_pattern(matrix)
-            template.destroy()
         if symmetric:
             matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         return matrix
@@ -323,6 +322,7 @@ class SNESSolver:
         """Give algebraic multigrid (``pc_type gamg``) the near-nullspace of the Jacobian,
         e.g. :func:`rigid_body_modes`."""
         nullspace = PETSc.NullSpace().create(vectors=vectors, comm=self.u.function_space.mesh.comm)
+        self._near_nullspace = nullspace
         self._A.setNearNullSpace(nullspace)
         if self._P is not None:
             self._P.setNearNullSpace(nullspace)
@@ -393,7 +393,22 @@ class SNESSolver:
         if self._coupling is not None:  # zero where the facet terms are inactive
             inactive = self.skip_inactive_facets and self._split.inactive
             changed = self._coupling.jacobian_changed(inactive) or changed
+            if self._coupling.growth is not None:  # pairs in contact for the first time
+                self._widen(self._coupling.growth)
         return changed
+
+    def _widen(self, pattern: PETSc.Mat) -> None:
+        """Add the entries of ``pattern`` to the sparsity of every Jacobian matrix (PETSc
+        rebuilds them: what was set on them is set again) and factorise anew."""
+        self._split.widen(pattern)
+        for matrix in (self._A, self._P):
+            if matrix is not None:
+                matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+                if self._symmetric:
+                    matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+                if self._near_nullspace is not None:
+                    matrix.setNearNullSpace(self._near_nullspace)
+        self.snes.getKSP().getPC().reset()
 
     def _exact_before(self, iteration: int) -> bool:
         """Whether iterate ``iteration - 1`` solved the step's equation exactly (up to
@@ -424,11 +439,8 @@ class SNESSolver:
         elif self._jacobian_terms_changed():  # always at the first evaluation
             # every Jacobian is K_bc + B, summed in that order: a run restarted from a
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
-            if self._coupling is None:
-                self._split.sum_into(A)
-            else:  # A has the wider sparsity of the coupling between bodies
-                A.zeroEntries()
-                self._split.add_into(A)
+            self._split.sum_into(A)
+            if self._coupling is not None:
                 self._coupling.add_jacobian(A)
         else:
             self._jacobian_changes[-1] = False
@@ -470,8 +482,7 @@ class SNESSolver:
                 residual norm. ``u`` then holds the last Newton iterate.
         """
         u_vec = compat.petsc_vector(self.u)
-        if self._split is not None:
-            self._split.update_cell_residual(self.u)
+        self._new_coefficients()
         # ||F(u_0)|| is SNES's first residual: the convergence test takes it from there
         self._zero_norm = self._norm_at_zero()
         self._given_atol = self.user_atol if self.user_atol is not None else atol
@@ -560,6 +571,14 @@ class SNESSolver:
         self.u.x.scatter_forward()
         return self._b.norm()
 
+    def _new_coefficients(self) -> None:
+        """What depends on the coefficients other than ``u`` (the constant part of the cell
+        terms, the partners of the state across contact pairs), for their new values."""
+        if self._split is not None:
+            self._split.update_cell_residual(self.u)
+        if self._coupling is not None:
+            self._coupling.update()
+
     def residual_norm(self, new_coefficients: bool = True) -> float:
         """The Euclidean norm of the residual at the current value of ``u`` (collective).
 
@@ -568,8 +587,8 @@ class SNESSolver:
                 solve or evaluation (with ``affine_cell_terms`` the constant part of the
                 cell terms is then re-assembled).
         """
-        if self._split is not None and new_coefficients:
-            self._split.update_cell_residual(self.u)
+        if new_coefficients:
+            self._new_coefficients()
         u_vec = compat.petsc_vector(self.u)
         u_vec.copy(self._x)
         self._assemble_residual(self.snes, self._x, self._b)

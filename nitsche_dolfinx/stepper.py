@@ -336,7 +336,9 @@ class NitscheStepper(TimeLevels):
             self.scheme.residual(ContactTerms([pair], partner_term), *state, test)
             for pair in problem.pairs
         ]
-        return PairCoupling(problem.pairs, F, residuals, self.w, self._dirichlet.dofs)
+        return PairCoupling(
+            problem.pairs, F, residuals, self.w, self._dirichlet.dofs, problem.symmetric_jacobian
+        )
 
     def _initialize(self, petsc_options) -> None:
         """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""

@@ -217,6 +217,7 @@ def two_bars_problem(
     nitsche_theta: float = 1.0,
     variant: str = "unbiased",
     comm=MPI.COMM_WORLD,
+    gamma0_scaling: str = "absolute",
 ):
     """Two bars of length 1, E = rho = 1, the right one moving at -v0 and the left one at
     +v0 (docs/method.md section 11): they touch at t = gap / (2 v0), stay in contact for
@@ -228,8 +229,9 @@ def two_bars_problem(
     """
     mesh, cell_tags, tags = two_bars_mesh(nx, gap, comm)
     problem = ContactProblem(
-        mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree, gamma0, nitsche_theta
-    )
+        mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree, gamma0, nitsche_theta,
+        gamma0_scaling=gamma0_scaling,
+    )  # fmt: skip
     problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant)
     velocity = body_velocities(problem, cell_tags, {UPPER_BODY: [-v0], LOWER_BODY: [v0]})
     problem.set_initial_conditions(velocity=velocity)
@@ -248,6 +250,7 @@ def two_bodies_problem(
     geometry_order: int = 2,
     along_axis: bool = True,
     comm=MPI.COMM_WORLD,
+    gamma0_scaling: str = "absolute",
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
@@ -260,8 +263,9 @@ def two_bodies_problem(
     """
     mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm)
     problem = ContactProblem(
-        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta
-    )
+        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta,
+        gamma0_scaling=gamma0_scaling,
+    )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0
     problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant, down if along_axis else None)
@@ -365,6 +369,8 @@ def ball_on_slab_problem(
     gravity: float = 0.1,
     gamma0: float = 1e-3,
     comm=MPI.COMM_WORLD,
+    nitsche_theta: float = 1.0,
+    gamma0_scaling: str = "absolute",
 ):
     """The ball of the impact test thrown down at v0 (and gravity) on a slab of the same
     material (lambda = mu = 20, rho = 1) resting on the rigid ground: body-body contact
@@ -372,7 +378,10 @@ def ball_on_slab_problem(
     add_contact_pair`, paired along the vertical), body-obstacle contact of the slab's
     bottom with the ground. Returns ``(problem, cell_tags)``."""
     mesh, cells, facets = ball_on_slab_mesh(dim, mesh_size, comm=comm)
-    problem = ContactProblem(mesh, facets, Material.from_lame(20.0, 20.0, rho=1.0), 2, gamma0)
+    problem = ContactProblem(
+        mesh, facets, Material.from_lame(20.0, 20.0, rho=1.0), 2, gamma0, nitsche_theta,
+        gamma0_scaling=gamma0_scaling,
+    )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0
     problem.add_contact_pair(BALL_BOTTOM, SLAB_TOP, "unbiased", down)

@@ -7,7 +7,7 @@ import sys
 
 import numpy as np
 import pytest
-from runs import assert_xdmf_readable
+from runs import MPIRUN, assert_same_history, assert_xdmf_readable, run
 
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
@@ -57,11 +57,12 @@ def test_bar_demo_bad_flags(tmp_path, flags, named):
 
 
 def test_two_bars_demo_contract(tmp_path):
-    """SPEC section 7: the columns, the momentum kept, the velocities exchanged."""
+    """SPEC section 7: the columns, the momentum kept, the velocities exchanged; the
+    energy figure and the picture of the bars in space and time."""
     out = tmp_path / "bars"
     result = run_demo(
-        "two_bars_1d.py", "--nx", "20", "--dt", "0.075", "--t-end", "3", "--no-plot",
-        "--quiet", "--out", str(out),
+        "two_bars_1d.py", "--nx", "20", "--dt", "0.075", "--t-end", "3", "--quiet",
+        "--out", str(out),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
     with open(out / "history.csv") as f:
@@ -74,6 +75,9 @@ def test_two_bars_demo_contract(tmp_path):
     assert np.abs(history[:, 4]).max() < 1e-8
     assert history[-1, 6] > 0.45 and history[-1, 5] < -0.45  # exchanged
     assert "exit velocities" in result.stdout
+    pytest.importorskip("matplotlib")
+    for figure in ("energy.png", "worldlines.png", "two_bars_1d.png"):
+        assert (out / figure).stat().st_size > 10_000, figure
 
 
 def test_two_disks_demo_contract(tmp_path):
@@ -97,6 +101,25 @@ def test_two_disks_demo_contract(tmp_path):
     assert float(line.split("differs by ")[1].split()[0]) < 1e-10
     times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
     assert times[-1] == pytest.approx(2.0)
+
+
+@pytest.mark.skipif(MPIRUN is None, reason="needs mpirun")
+def test_two_disks_demo_under_mpirun_matches_serial(tmp_path):
+    """The demo on two ranks, one disk on each (the pairs' partners all on the other
+    rank): its history is the serial one to 1e-8, its fields readable."""
+    outs = [tmp_path / "serial", tmp_path / "two_ranks"]
+    for out, ranks in zip(outs, (1, 2)):
+        flags = ["--t-end", "3", "--output-every", "10", "--no-compare", "--no-plot", "--quiet"]
+        result = run("demos/two_disks_2d.py", *flags, "--out", str(out), ranks=ranks)
+        assert result.returncode == 0, result.stderr
+    serial, parallel = (read_history(str(out / "history.csv")) for out in outs)
+    assert serial["contact_force"].max() > 0
+    momentum = ["momentum_x", "momentum_y"]  # zero: compared on one disk's, rho |disk| v0
+    for name in momentum:
+        assert np.abs(parallel[name] - serial[name]).max() < 1e-8 * np.pi * 20.0**2
+    others = [name for name in serial if name not in momentum]
+    assert_same_history(*({n: h[n] for n in others} for h in (parallel, serial)), 1e-8)
+    assert assert_xdmf_readable(str(outs[1] / "solution.xdmf"), 3.0)[-1] == pytest.approx(3.0)
 
 
 def test_ball_on_slab_demo_runs_both_contacts(tmp_path):

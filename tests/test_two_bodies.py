@@ -10,7 +10,9 @@ from nitsche_dolfinx.parameters import ParameterError
 from nitsche_dolfinx.shapes import DISK_CONTACT, disk_mesh
 from nitsche_dolfinx.twobody import (
     LOWER_BODY,
+    LOWER_CONTACT,
     UPPER_BODY,
+    UPPER_CONTACT,
     add_body_velocity_probes,
     two_bars_problem,
     two_bodies_problem,
@@ -19,20 +21,36 @@ from nitsche_dolfinx.twobody import (
 NX, DT, T = 20, 0.025, 3.0
 
 
-def _bars(comm=MPI.COMM_WORLD, t_end=T, **kwargs):
+def _bars(comm=MPI.COMM_WORLD, t_end=T, with_problem=False, **kwargs):
     problem, cells = two_bars_problem(nx=NX, v0=0.5, gamma0=1e-6, comm=comm, **kwargs)
     simulation = Simulation(problem, HybridScheme(), dt=DT, t_end=t_end)
     add_body_velocity_probes(simulation, cells, {UPPER_BODY: "v_right", LOWER_BODY: "v_left"})
-    return simulation.run()
+    history = simulation.run()
+    return (history, problem) if with_problem else history
 
 
-def _bar_on_a_wall(gamma0):
+def _bar_on_a_wall(gamma0, nitsche_theta=1.0):
     """The right bar alone, hitting a rigid wall at x = 0 (the plane of symmetry)."""
     mesh, tags = bar_mesh(NX)
-    problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), 1, gamma0, 1.0)
+    material = Material(E=1.0, nu=0.0, rho=1.0)
+    problem = ContactProblem(mesh, tags, material, 1, gamma0, nitsche_theta)
     problem.add_obstacle(PlaneObstacle([0.0], [1.0]), 1)
     problem.set_initial_conditions(velocity=[-0.5])
     return Simulation(problem, HybridScheme(), dt=DT, t_end=T).run()
+
+
+def _surface_ranks(problem, tag) -> set:
+    """The ranks that own facets of the surface ``tag``."""
+    fdim = problem.mesh.topology.dim - 1
+    owned = problem.facets(tag) < problem.mesh.topology.index_map(fdim).size_local
+    return {rank for rank, has in enumerate(problem.mesh.comm.allgather(owned.any())) if has}
+
+
+def _assert_surfaces_on_different_ranks(problem):
+    """Each contact surface of the pair is on one rank, not the other's: every slave node
+    has its partner on another rank."""
+    upper, lower = (_surface_ranks(problem, tag) for tag in (UPPER_CONTACT, LOWER_CONTACT))
+    assert len(upper) == len(lower) == 1 and upper != lower, (upper, lower)
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +70,18 @@ def test_unbiased_pair_is_the_rigid_plane_problem_with_half_gamma0(bars):
     for column in ("energy", "energy_theta", "kinetic", "elastic"):
         np.testing.assert_allclose(bars[column], 2 * wall[column], rtol=1e-10, atol=1e-14)
     np.testing.assert_array_equal(bars["newton_iterations"], wall["newton_iterations"])
+
+
+@pytest.mark.parametrize("nitsche_theta", [0.0, -1.0])
+def test_unbiased_pair_is_the_rigid_plane_problem_for_every_theta(nitsche_theta):
+    """The derivation holds term by term for any Theta: the non-symmetric Jacobian
+    (dG/dw assembled) gives the wall's Newton iterations too."""
+    pair = _bars(nitsche_theta=nitsche_theta)
+    wall = _bar_on_a_wall(1e-6 / 2, nitsche_theta)
+    np.testing.assert_allclose(pair["contact_force"], wall["contact_force"], rtol=0, atol=5e-8)
+    np.testing.assert_allclose(pair["energy_theta"], 2 * wall["energy_theta"], rtol=1e-10)
+    np.testing.assert_array_equal(pair["newton_iterations"], wall["newton_iterations"])
+    assert np.abs(pair["momentum"]).max() < 1e-8 * 0.5
 
 
 def test_momentum_is_conserved_and_energy_theta_never_increases(bars):
@@ -85,7 +115,10 @@ def test_pair_refuses_what_it_does_not_do():
 
 @pytest.mark.mpi
 def test_parallel_pair_matches_serial():
-    parallel = _bars(MPI.COMM_WORLD, t_end=1.0)
+    """The two bars on two ranks, one bar on each."""
+    parallel, problem = _bars(MPI.COMM_WORLD, t_end=1.0, with_problem=True)
+    if MPI.COMM_WORLD.size == 2:
+        _assert_surfaces_on_different_ranks(problem)
     serial = _bars(MPI.COMM_SELF, t_end=1.0)
     for column in ("energy", "energy_theta", "contact_force", "v_left", "v_right", "momentum"):
         # the momentum is zero: compared on the scale of one bar's, rho L v0 = 0.5
@@ -206,12 +239,14 @@ def test_configuration_refuses_a_bad_pair(tmp_path, extra, named):
 @pytest.mark.mpi
 @pytest.mark.parametrize("along_axis", [True, False], ids=["axis", "closest"])
 def test_parallel_disks_match_serial(along_axis):
-    """The two disks split over the ranks (each surface's partners on other ranks)."""
+    """The two disks on two ranks, one disk on each: every partner on the other rank."""
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
         problem, _ = two_bodies_problem(
             dim=2, mesh_size=8.0, gap=1.0, along_axis=along_axis, comm=comm
         )
+        if comm.size == 2:
+            _assert_surfaces_on_different_ranks(problem)
         runs.append(Simulation(problem, HybridScheme(), dt=0.1, t_end=4.0).run())
     parallel, serial = runs
     assert serial["contact_force"].max() > 0
