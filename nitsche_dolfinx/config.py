@@ -304,9 +304,10 @@ def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
 
 
 def _check_facet_tag(table: dict, where: str, source: str) -> None:
-    """A tag >= 1 and at least one selector, each with the keys of its kind."""
-    if table["tag"] < 1:
-        raise bad(source, where, "tag", table["tag"], "must be at least 1")
+    """A tag >= 1 (a 32-bit integer) and at least one selector, each with the keys of its
+    kind."""
+    if not 1 <= table["tag"] < 2**31:
+        raise bad(source, where, "tag", table["tag"], "must be from 1 to 2^31 - 1")
     selectors = [name for name in FACET_SELECTORS if name in table]
     if not selectors:
         raise ConfigError(

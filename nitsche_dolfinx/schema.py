@@ -204,9 +204,9 @@ SCHEMA: dict[str, Table] = {
         "boundary facets tagged by selectors, before the terms are added (a mesh without "
         "physical groups, or new parts of one): those that every selector given chooses",
         {
-            "tag": Key("integer", REQUIRED, "the facet tag, >= 1; a facet keeps the last tag "
-                       "that chooses it, else its tag in the mesh (several tables of one tag: "
-                       "the union of their facets)"),
+            "tag": Key("integer", REQUIRED, "the facet tag, from 1 to 2^31 - 1; a facet "
+                       "keeps the last tag that chooses it, else its tag in the mesh (several "
+                       "tables of one tag: the union of their facets)"),
             **{
                 name: Key("selector", None, f"{table.meaning} (keys: below)",
                           shown_default="none")

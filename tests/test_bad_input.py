@@ -446,7 +446,11 @@ TOML = {
     ),
     "facet-tag-zero": (
         before_output("[[facet_tag]]\ntag = 0\nnormal_within = { direction = [0.0, -1.0] }"),
-        "[[facet_tag]] #1 tag = 0: must be at least 1",
+        "[[facet_tag]] #1 tag = 0: must be from 1 to 2^31 - 1",
+    ),
+    "facet-tag-beyond-int32": (
+        before_output("[[facet_tag]]\ntag = 2147483648\nnormal_within = { direction = [0, -1] }"),
+        "[[facet_tag]] #1 tag = 2147483648: must be from 1 to 2^31 - 1",
     ),
     "facet-tag-unknown-selector": (
         facet_tag("on_line = { point = [0.0, 0.0] }"),
