@@ -1,11 +1,12 @@
 """The simulation a validated TOML configuration describes (:mod:`nitsche_dolfinx.config`).
 
 The values are checked first, by the parameter objects of
-:mod:`nitsche_dolfinx.parameters`; then the mesh is made or read, and the tags,
-dimensions and shapes are checked against it; then the terms are added in the order of
-the demos (contact pairs, obstacles, Dirichlet conditions, loads, initial values) and
-the probes. Every error is a :class:`~nitsche_dolfinx.config.ConfigError` naming the
-``[table] key`` it came from.
+:mod:`nitsche_dolfinx.parameters` (and the facet selectors by their classes); then the
+mesh is made or read, its facets tagged by the ``[[facet_tag]]`` selectors, and the
+tags, dimensions and shapes are checked against it; then the terms are added in the
+order of the demos (contact pairs, obstacles, Dirichlet conditions, loads, initial
+values) and the probes. Every error is a :class:`~nitsche_dolfinx.config.ConfigError`
+naming the ``[table] key`` it came from.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .config import bad, output_parameters, reported_at, setting
-from .schema import SCHEMA
+from .schema import FACET_SELECTORS, SCHEMA
 from .valueforms import field_value, time_value
 
 __all__ = ["build_simulation"]
@@ -61,9 +62,11 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
             *(get("mesh", key) for key in ("degree", "mass", "quadrature_degree"))
         )
     obstacles = _obstacles(config, source)
+    selectors = _selectors(config, source)
     output_parameters(config, source)
-    mesh, cell_tags, facet_tags = _mesh(config["mesh"], comm, source)
+    mesh, cell_tags, facet_tags = _mesh(config, comm, source)
     _check_dimensions(config, mesh.geometry.dim, source)
+    facet_tags = _tag_facets(mesh, facet_tags, selectors, config, source)
     with reported_at("[nitsche]", source):
         problem = ContactProblem(
             mesh, facet_tags, material, **vars(contact), **vars(discretisation)
@@ -117,16 +120,55 @@ def _obstacles(config: dict, source: str) -> list:
     return obstacles
 
 
-def _mesh(table: dict, comm, source: str):
-    """``(mesh, cell_tags or None, facet_tags)`` of [mesh]."""
+def _selectors(config: dict, source: str) -> list[list]:
+    """The selectors of each [[facet_tag]] table (checked without the mesh)."""
+    from . import meshes
+
+    classes = {"on_plane": meshes.OnPlane, "normal_within": meshes.NormalWithin,
+               "in_box": meshes.InBox}  # fmt: skip
+    selectors = []
+    for index, table in enumerate(config.get("facet_tag", [])):
+        selectors.append([])
+        for name in FACET_SELECTORS:
+            if name in table:
+                try:
+                    selectors[-1].append(classes[name](**table[name]))
+                except ValueError as error:
+                    where = f"[[facet_tag]] #{index + 1}"
+                    raise bad(source, where, name, table[name], str(error)) from None
+    return selectors
+
+
+def _mesh(config: dict, comm, source: str):
+    """``(mesh, cell_tags or None, facet_tags or None)`` of [mesh]: a mesh file may lack
+    facet tags when [[facet_tag]] tables tag its facets."""
     from .mesh_generators import generate_mesh
     from .meshes import load_mesh
 
+    table = config["mesh"]
     with reported_at("[mesh]", source):
         if "generator" in table:
             return generate_mesh(table["generator"], table, comm)
-        mesh, facet_tags = load_mesh(table["file"], gdim=table.get("gdim"), comm=comm)
+        mesh, facet_tags = load_mesh(
+            table["file"], table.get("gdim"), comm, facet_tags_required=not config.get("facet_tag")
+        )
         return mesh, None, facet_tags
+
+
+def _tag_facets(mesh, facet_tags, selectors: list[list], config: dict, source: str):
+    """The facet tags of the mesh with those of the [[facet_tag]] tables, in their order."""
+    from .meshes import tag_facets
+
+    for index, (table, chosen_by) in enumerate(zip(config.get("facet_tag", []), selectors)):
+        try:
+            facet_tags = tag_facets(mesh, {table["tag"]: chosen_by}, facet_tags)
+        except ValueError:  # the only error of checked selectors
+            given = ", ".join(name for name in FACET_SELECTORS if name in table)
+            raise bad(
+                source, f"[[facet_tag]] #{index + 1}", "tag", table["tag"],
+                f"its selectors ({given}) choose no boundary facet of the mesh",
+            ) from None  # fmt: skip
+    return facet_tags
 
 
 def _components(value) -> int | None:
@@ -138,13 +180,40 @@ def _components(value) -> int | None:
     return check_time_value(value)
 
 
+def _check_vectors(item: dict, spec, gdim: int, where: str, source: str) -> None:
+    """The vectors, values in time and values in x of a table have gdim components."""
+    for key, value in item.items():
+        if spec.keys[key].kind not in ("vector", "value in time", "value in x"):
+            continue
+        size = _components(value)
+        if size != gdim and not (size == 1 and gdim == 1):
+            raise bad(
+                source, where, key, value,
+                f"has {size} component{'s' * (size != 1)}, the mesh is {gdim}D",
+            )  # fmt: skip
+
+
+def _check_component(item: dict, gdim: int, where: str, source: str) -> None:
+    """A component of the mesh's displacement, and a scalar value for it."""
+    component = item["component"]
+    if component >= gdim:
+        components = "component 0" if gdim == 1 else f"components 0 to {gdim - 1}"
+        raise bad(source, where, "component", component, f"the mesh is {gdim}D ({components})")
+    size = _components(item["value"])
+    if size != 1:
+        raise bad(
+            source, where, "value", item["value"],
+            f"has {size} components; one component (component = {component}) takes a scalar",
+        )  # fmt: skip
+
+
 #: The types of obstacle that exist in each dimension.
 _OBSTACLE_DIMENSIONS = {"plane": (1, 2, 3), "circle": (2,), "sphere": (3,), "cylinder": (3,)}
 
 
 def _check_dimensions(config: dict, gdim: int, source: str) -> None:
-    """Every vector of the configuration has the mesh's dimension, and every obstacle
-    type exists in it."""
+    """Every vector of the configuration has the mesh's dimension (one component of a
+    Dirichlet value has one), and every obstacle type exists in it."""
     for name, spec in SCHEMA.items():
         # the obstacles and pairs check their points and directions themselves
         if name not in config or spec.free or name in ("mesh", "obstacle", "contact_pair"):
@@ -152,16 +221,16 @@ def _check_dimensions(config: dict, gdim: int, source: str) -> None:
         items = config[name] if spec.array else [config[name]]
         for index, item in enumerate(items):
             where = f"[[{name}]] #{index + 1}" if spec.array else f"[{name}]"
-            for key, value in item.items():
-                kind = spec.keys[key].kind
-                if kind not in ("vector", "value in time", "value in x"):
-                    continue
-                size = _components(value)
-                if size != gdim and not (size == 1 and gdim == 1):
-                    raise bad(
-                        source, where, key, value,
-                        f"has {size} component{'s' * (size != 1)}, the mesh is {gdim}D",
-                    )  # fmt: skip
+            if name == "dirichlet" and "component" in item:
+                _check_component(item, gdim, where, source)
+                continue
+            if name == "facet_tag":
+                for selector in FACET_SELECTORS:
+                    if selector in item:
+                        _check_vectors(item[selector], FACET_SELECTORS[selector], gdim,
+                                       f"{where} {selector}", source)  # fmt: skip
+                continue
+            _check_vectors(item, spec, gdim, where, source)
     for index, table in enumerate(config.get("obstacle", [])):
         kind = setting(config, "obstacle", "type", table)
         if gdim not in _OBSTACLE_DIMENSIONS[kind]:
@@ -186,10 +255,12 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
     for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
         with reported_at(f"[[obstacle]] #{index + 1}", source):
             contacts.append(problem.add_obstacle(obstacle, table["tag"]))
-    for name, add in (("dirichlet", problem.add_dirichlet), ("traction", problem.add_traction)):
-        for index, table in enumerate(config.get(name, [])):
-            with reported_at(f"[[{name}]] #{index + 1}", source):
-                add(table["tag"], time_value(table["value"]))
+    for index, table in enumerate(config.get("dirichlet", [])):
+        with reported_at(f"[[dirichlet]] #{index + 1}", source):
+            problem.add_dirichlet(table["tag"], time_value(table["value"]), table.get("component"))
+    for index, table in enumerate(config.get("traction", [])):
+        with reported_at(f"[[traction]] #{index + 1}", source):
+            problem.add_traction(table["tag"], time_value(table["value"]))
     if "body_force" in config:
         with reported_at("[body_force]", source):
             problem.add_body_force(time_value(config["body_force"]["value"]))
@@ -226,10 +297,11 @@ def _body_velocities(problem, bodies: list, cell_tags, source: str):
 
 
 def _add_probes(simulation, config: dict, contacts: list, cell_tags, source: str) -> None:
-    """The [[probe]] columns: means of u, v or lambda_h over facets, cells or the mesh."""
+    """The [[probe]] columns: u or v at a point, means of u, v or lambda_h over facets,
+    cells or the mesh."""
     import ufl
 
-    from .diagnostics import BoundaryAverage
+    from .diagnostics import BoundaryAverage, PointValue
 
     problem = simulation.problem
     for index, probe in enumerate(config.get("probe", [])):
@@ -250,6 +322,15 @@ def _add_probes(simulation, config: dict, contacts: list, cell_tags, source: str
                 raise bad(source, where, "component", component, f"the mesh is {problem.gdim}D")
             function = simulation.u if quantity == "displacement" else simulation.v
             expression = function[component]
+        if "point" in probe:
+            try:
+                value = PointValue(function, probe["point"], component)
+            except ValueError:  # the point and the component are checked: outside the mesh
+                raise bad(
+                    source, where, "point", probe["point"], "is in no cell of the mesh"
+                ) from None
+            simulation.add_probe(probe["name"], value)
+            continue
         if "facets" in probe:
             with reported_at(where, source):
                 problem.facets(probe["facets"])

@@ -54,7 +54,7 @@ import math
 import os
 
 from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
-from .schema import KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, REQUIRED, SCHEMA
+from .schema import FACET_SELECTORS, KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, REQUIRED, SCHEMA
 from .valueforms import check_field_value, check_time_value
 
 __all__ = [
@@ -168,9 +168,16 @@ def validate(config: dict, source: str = "config") -> None:
     _check_material(config["material"], source)
     _check_scheme_keys(config["scheme"], source)
     _check_mesh(config["mesh"], source)
+    for index, table in enumerate(config.get("facet_tag", [])):
+        _check_facet_tag(table, f"[[facet_tag]] #{index + 1}", source)
     for index, obstacle in enumerate(config.get("obstacle", [])):
         _check_obstacle(obstacle, f"[[obstacle]] #{index + 1}", source)
     _check_values(config, source)
+    for index, table in enumerate(config.get("dirichlet", [])):
+        component = table.get("component", 0)
+        if not 0 <= component <= 2:
+            raise bad(source, f"[[dirichlet]] #{index + 1}", "component", component,
+                      "must be 0 (x), 1 (y) or 2 (z)")  # fmt: skip
     _check_probes(config.get("probe", []), source)
     if config.get("body") and "velocity" in config.get("initial", {}):
         raise ConfigError(
@@ -296,6 +303,24 @@ def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
         raise bad(source, where, "radius", obstacle["radius"], "must be positive")
 
 
+def _check_facet_tag(table: dict, where: str, source: str) -> None:
+    """A tag >= 1 (a 32-bit integer) and at least one selector, each with the keys of its
+    kind."""
+    if not 1 <= table["tag"] < 2**31:
+        raise bad(source, where, "tag", table["tag"], "must be from 1 to 2^31 - 1")
+    selectors = [name for name in FACET_SELECTORS if name in table]
+    if not selectors:
+        raise ConfigError(
+            f"{source}: {where} (tag = {table['tag']}) needs a selector: "
+            f"{', '.join(FACET_SELECTORS)}"
+        )
+    for name in selectors:
+        _check_table(table[name], FACET_SELECTORS[name], f"{source}: {where} {name}")
+        tolerance = table[name].get("tolerance", 0.0)
+        if tolerance < 0:
+            raise bad(source, f"{where} {name}", "tolerance", tolerance, "must be >= 0")
+
+
 #: The values in time and in space: (table, key, checker).
 _VALUES = (
     ("dirichlet", "value", check_time_value),
@@ -326,8 +351,17 @@ def _check_probes(probes: list, source: str) -> None:
         if probe["name"] in names:
             raise bad(source, where, "name", probe["name"], "a second probe of that name")
         names.add(probe["name"])
-        if "facets" in probe and "cells" in probe:
-            raise ConfigError(f"{source}: {where} gives facets and cells: give one of them")
+        given = [key for key in ("point", "facets", "cells") if key in probe]
+        if len(given) > 1:
+            raise ConfigError(
+                f"{source}: {where} gives {' and '.join(given)}: give one of them (none: the "
+                "mean over the mesh)"
+            )
+        if "point" in probe and not PROBE_QUANTITIES[probe["quantity"]]:
+            raise bad(
+                source, where, "point", probe["point"],
+                f"{probe['quantity']} is a mean over facets, not a value at a point",
+            )  # fmt: skip
         if "component" in probe and not PROBE_QUANTITIES[probe["quantity"]]:
             raise bad(source, where, "component", probe["component"], "the quantity is scalar")
 

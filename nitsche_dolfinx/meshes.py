@@ -322,13 +322,15 @@ def load_mesh(
     comm=MPI.COMM_WORLD,
     mesh_name: str = "mesh",
     facet_tags_name: str = "facet_tags",
+    facet_tags_required: bool = True,
 ):
     """Read a mesh and its facet tags from a gmsh ``.msh`` file or an XDMF file.
 
     In a ``.msh`` file, the physical groups of dimension tdim - 1 become the facet
     tags (their tag is the physical group's number). An XDMF file must hold the mesh
     called ``mesh_name`` and the facet tags called ``facet_tags_name``. Rank 0
-    reads a ``.msh`` file and distributes the mesh.
+    reads a ``.msh`` file and distributes the mesh. Without ``facet_tags_required``, a
+    file without facet tags gives None for them (:func:`tag_facets` makes some).
 
     Args:
         path: The ``.msh`` or ``.xdmf`` file.
@@ -343,7 +345,8 @@ def load_mesh(
         ``(mesh, facet_tags)``.
 
     Raises:
-        ValueError: The file is missing, of an unknown kind, or cannot be read.
+        ValueError: The file is missing, of an unknown kind, or cannot be read, or has no
+            facet tags and ``facet_tags_required``.
     """
     path = str(path)
     if os.path.isdir(path):
@@ -353,9 +356,12 @@ def load_mesh(
     extension = os.path.splitext(path)[1].lower()
     try:
         if extension == ".msh":
-            return _load_msh(path, gdim, comm)
+            return _load_msh(path, gdim, comm, facet_tags_required)
         if extension == ".xdmf":
-            mesh, facet_tags = _load_xdmf(path, comm, mesh_name, facet_tags_name)
+            tags_name = (
+                facet_tags_name if facet_tags_required or _has_grid(path, facet_tags_name) else None
+            )
+            mesh, facet_tags = _load_xdmf(path, comm, mesh_name, tags_name)
             if gdim is not None and mesh.geometry.dim != gdim:
                 raise ValueError(
                     f"mesh file {path!r} holds {mesh.geometry.dim}D coordinates, not "
@@ -369,7 +375,7 @@ def load_mesh(
     raise ValueError(f"mesh file {path!r}: unknown kind {extension!r} (use .msh or .xdmf)")
 
 
-def _load_msh(path, gdim, comm):
+def _load_msh(path, gdim, comm, facet_tags_required: bool):
     if gdim is None:
         found = None
         if comm.rank == 0:
@@ -382,8 +388,11 @@ def _load_msh(path, gdim, comm):
             raise ValueError(found)
         gdim = found
     mesh, _, facet_tags = compat.read_gmsh_file(path, comm, 0, gdim)
-    if facet_tags is None:
-        raise ValueError(f"mesh file {path!r} has no physical groups on its boundary")
+    # dolfinx 0.5 gives empty tags where later versions give None
+    if facet_tags is None or comm.allreduce(len(facet_tags.values), op=MPI.SUM) == 0:
+        if facet_tags_required:
+            raise ValueError(f"mesh file {path!r} has no physical groups on its boundary")
+        return mesh, None
     return mesh, facet_tags
 
 
@@ -408,13 +417,23 @@ def _msh_dimension(path: str) -> int:
 
 
 def _load_xdmf(path, comm, mesh_name, facet_tags_name):
+    """The mesh and the facet tags of an XDMF file (None for ``facet_tags_name``: none)."""
     from dolfinx.io import XDMFFile
 
     with XDMFFile(comm, path, "r") as xdmf:
         mesh = xdmf.read_mesh(name=mesh_name)
         mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+        if facet_tags_name is None:
+            return mesh, None
         facet_tags = xdmf.read_meshtags(mesh, facet_tags_name)
     return mesh, facet_tags
+
+
+def _has_grid(path: str, name: str) -> bool:
+    """Whether the XDMF file names a grid ``name``."""
+    import xml.etree.ElementTree as ElementTree
+
+    return any(grid.get("Name") == name for grid in ElementTree.parse(path).getroot().iter("Grid"))
 
 
 def save_mesh(

@@ -17,7 +17,16 @@ from .parameters import CONTACT_METHODS, GAMMA0_SCALINGS, MASS_MATRICES
 from .schemes import SCHEMES
 from .valueforms import PROFILES
 
-__all__ = ["KINDS", "OBSTACLE_TYPES", "PROBE_QUANTITIES", "SCHEMA", "Key", "Table", "describe"]
+__all__ = [
+    "FACET_SELECTORS",
+    "KINDS",
+    "OBSTACLE_TYPES",
+    "PROBE_QUANTITIES",
+    "SCHEMA",
+    "Key",
+    "Table",
+    "describe",
+]
 
 
 class _Required:
@@ -113,6 +122,8 @@ KINDS = {
         "a vector or {constant, gradient, hessian}",
         lambda v: _is_number(v) or isinstance(v, (list, dict)),
     ),
+    # its keys: FACET_SELECTORS
+    "selector": ("an inline table { key = value, ... }", lambda v: isinstance(v, dict)),
 }
 
 #: Obstacle types -> the keys each takes (besides type and tag) and what it is.
@@ -122,8 +133,40 @@ OBSTACLE_TYPES = {
     "sphere": (("center", "radius", "side"), "a sphere (3D)"),
     "cylinder": (("point", "axis", "radius", "side"), "a circular cylinder (3D)"),
 }
-#: Probe quantities: whether they take a component.
+#: Probe quantities: whether they take a component (and a point).
 PROBE_QUANTITIES = {"displacement": True, "velocity": True, "contact_pressure": False}
+
+_FROM_EXTENT = "1e-8 times the largest |coordinate| of the mesh"
+
+#: The facet selectors of [[facet_tag]] (inline tables), those of nitsche_dolfinx.meshes
+#: (OnPlane, NormalWithin, InBox) with their arguments as keys.
+FACET_SELECTORS = {
+    "on_plane": Table(
+        "every vertex on the plane through point (a line in 2D, a point in 1D): "
+        "|(x - point) . normal| <= tolerance",
+        {
+            "point": Key("vector", REQUIRED, "a point of the plane"),
+            "normal": Key("vector", REQUIRED, "a normal of the plane (not zero)"),
+            "tolerance": Key("number", None, "the distance allowed", shown_default=_FROM_EXTENT),
+        },
+    ),
+    "normal_within": Table(
+        "the outward normal (of the straight facet through the vertices) within angle "
+        "degrees of direction",
+        {
+            "direction": Key("vector", REQUIRED, "the direction (not zero)"),
+            "angle": Key("number", 1.0, "the largest angle, in degrees, in [0, 180]"),
+        },
+    ),
+    "in_box": Table(
+        "every vertex in the box lower <= x <= upper, widened by tolerance",
+        {
+            "lower": Key("vector", REQUIRED, "the lower corner"),
+            "upper": Key("vector", REQUIRED, "the upper corner (upper >= lower)"),
+            "tolerance": Key("number", None, "the widening", shown_default=_FROM_EXTENT),
+        },
+    ),
+}
 
 
 def _choices(names) -> str:
@@ -132,8 +175,8 @@ def _choices(names) -> str:
 
 _MESH_KEYS = {
     "file": Key(
-        "string", None, "a gmsh .msh or XDMF mesh with facet tags, relative to the TOML file "
-        "(give file or generator)"
+        "string", None, "a gmsh .msh or XDMF mesh, relative to the TOML file (give file or "
+        "generator); its facet tags: the physical groups of its boundary, and [[facet_tag]]"
     ),
     "generator": Key(
         "string", None, "a mesh of the library (see the generators below)",
@@ -157,6 +200,21 @@ _MESH_KEYS = {
 SCHEMA: dict[str, Table] = {
     "mesh": Table("the mesh, read or generated, and its finite elements", _MESH_KEYS,
                   required=True),
+    "facet_tag": Table(
+        "boundary facets tagged by selectors, before the terms are added (a mesh without "
+        "physical groups, or new parts of one): those that every selector given chooses",
+        {
+            "tag": Key("integer", REQUIRED, "the facet tag, from 1 to 2^31 - 1; a facet "
+                       "keeps the last tag that chooses it, else its tag in the mesh (several "
+                       "tables of one tag: the union of their facets)"),
+            **{
+                name: Key("selector", None, f"{table.meaning} (keys: below)",
+                          shown_default="none")
+                for name, table in FACET_SELECTORS.items()
+            },
+        },
+        array=True,
+    ),
     "material": Table(
         "linear elasticity: E and nu, or lmbda and mu (plane strain in 2D)",
         {
@@ -234,10 +292,13 @@ SCHEMA: dict[str, Table] = {
         array=True,
     ),
     "dirichlet": Table(
-        "a prescribed displacement",
+        "a prescribed displacement, or one of its components (a symmetry plane or a roller)",
         {
             "tag": Key("integer", REQUIRED, "facet tag"),
-            "value": Key("value in time", REQUIRED, "the displacement"),
+            "value": Key("value in time", REQUIRED, "the displacement (with component: a "
+                         "scalar, the value of that component)"),
+            "component": Key("integer", None, "prescribe only this component (0: x, 1: y, "
+                             "2: z), the others free", shown_default="all"),
         },
         array=True,
     ),
@@ -269,12 +330,15 @@ SCHEMA: dict[str, Table] = {
         array=True,
     ),
     "probe": Table(
-        "a history column: the mean of a quantity over facets, cells or the whole mesh",
+        "a history column: a quantity at a point, or its mean over facets, cells or the "
+        "whole mesh",
         {
             "name": Key("string", REQUIRED, "the column's name"),
             "quantity": Key("string", REQUIRED, "what is averaged (contact_pressure: "
                             "lambda_h of the first obstacle)", tuple(PROBE_QUANTITIES)),
             "component": Key("integer", 0, "component of a vector quantity"),
+            "point": Key("vector", None, "the value at this point of the body (reference "
+                         "configuration; displacement, velocity)"),
             "facets": Key("integer", None, "mean over the facets of this tag"),
             "cells": Key("integer", None, "mean over the cells of this tag",
                          shown_default="the whole mesh"),
@@ -289,7 +353,12 @@ SCHEMA: dict[str, Table] = {
                          shown_default="about 50 outputs"),
             "checkpoint_every": Key("integer", 0, "save the state every N steps (0: only when "
                                     "the run stops early)"),
-            "columns": Key("strings", None, "the columns of history.csv",
+            "columns": Key("strings", None, "the columns of history.csv, any of the run's: "
+                           "those of the demos, dt, step_cuts, momentum_x, ... and "
+                           "centre_of_mass_x, ... (1D: momentum, centre_of_mass), "
+                           "contact_force_k and contact_area_k (the k-th obstacle; a contact "
+                           "pair counts two), friction_dissipation, energy_balance_residual, "
+                           "the probes' names",
                            shown_default="those of the 2D/3D demos, then the probes"),
         },
     ),
@@ -314,13 +383,21 @@ def describe(width: int = 100) -> str:
         lines.append(head.ljust(indent) + wrapped[0])
         lines.extend(" " * indent + rest for rest in wrapped[1:])
 
-    for name, table in SCHEMA.items():
-        lines.append(f"{table.header(name)}  {table.meaning}{' (required)' * table.required}")
+    def add_keys(table: Table) -> None:
         for key, spec in table.keys.items():
             choices = f" ({' | '.join(spec.choices)})" if spec.choices else ""
             default = "required" if spec.required else f"default: {spec.default_text()}"
             add(f"  {key:18s} {spec.kind:14s}", f"{spec.meaning}{choices}; {default}", 36)
         lines.append("")
+
+    for name, table in SCHEMA.items():
+        header = table.header(name)
+        add(f"{header}  ", f"{table.meaning}{' (required)' * table.required}", len(header) + 2)
+        add_keys(table)
+    lines.append("Facet selectors ([[facet_tag]] NAME = { key = value, ... }), their keys:")
+    for name, table in FACET_SELECTORS.items():
+        add(f"{name} = {{ ... }}  ", table.meaning, len(name) + 12)
+        add_keys(table)
     lines.append("Mesh generators ([mesh] generator = NAME), their keys with defaults, their tags:")
     for name, generator in MESH_GENERATORS.items():
         keys = ", ".join(f"{key} = {toml_text(value)}" for key, value in generator.keys.items())

@@ -55,13 +55,16 @@ def _mirrored(xyz, cells, axis: int, merge: bool):
     return np.vstack([xyz, mirror]), np.vstack([cells, mirrored_cells])
 
 
-def symmetric_disks(half: bool, pair: bool = False, mesh_size: float = 8.0, comm=MPI.COMM_WORLD):
+def symmetric_disks(
+    half: bool, pair: bool = False, mesh_size: float = 8.0, comm=MPI.COMM_WORLD, msh=None
+):
     """The disk of the impact test, exactly symmetric in x = 0 (its left half mirrored),
     or its left half; with ``pair``, also its mirror image in y = 0 (two bodies touching
     at the origin). Returns ``(mesh, cell_tags, facet_tags)``: cells 1 (upper body) and
     2; facets DISK_CONTACT (the lower half circle), DISK_FREE (the upper one), and for a
     pair 4 and 5 (the lower body's upper and lower half circles), tagged by
-    :func:`tag_facets`; SYMMETRY on the cut of a half."""
+    :func:`tag_facets`; SYMMETRY on the cut of a half. ``msh``: a path where rank 0 also
+    writes the mesh, a ``.msh`` file with the cells' physical groups only."""
     from nitsche_dolfinx.compat import gmsh_model_to_mesh
 
     with gmsh_session() as gmsh:
@@ -81,6 +84,8 @@ def symmetric_disks(half: bool, pair: bool = False, mesh_size: float = 8.0, comm
                 chosen = np.flatnonzero(bodies == body)
                 gmsh.model.mesh.addElementsByType(entity, 9, chosen + 1, cells[chosen].ravel() + 1)
                 gmsh.model.addPhysicalGroup(2, [entity], int(body))
+            if msh is not None:
+                gmsh.write(str(msh))
         mesh, cell_tags, _ = gmsh_model_to_mesh(gmsh.model, comm, 0, 2)
 
     def on_circle(centre_y, lower):

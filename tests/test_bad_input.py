@@ -159,6 +159,24 @@ def curved(kind: str, keys: str) -> dict:
     return {'type = "plane"': f'type = "{kind}"', "point = [0.0, 0.0]\nnormal = [0.0, 1.0]": keys}
 
 
+def before_output(text: str) -> dict:
+    """``text`` added to the ring's configuration, before its [output] table."""
+    return {"[output]": f"{text}\n\n[output]"}
+
+
+def dirichlet(keys: str) -> dict:
+    """A [[dirichlet]] table on the ring's inner boundary (tag 3) with ``keys``."""
+    return before_output(f"[[dirichlet]]\ntag = 3\n{keys}")
+
+
+def facet_tag(keys: str) -> dict:
+    """A [[facet_tag]] table of tag 9 with ``keys`` (and a probe over its facets)."""
+    return before_output(
+        f'[[facet_tag]]\ntag = 9\n{keys}\n\n[[probe]]\nname = "u"\nquantity = "velocity"\n'
+        "facets = 9"
+    )
+
+
 TOML = {
     "E-inf": ({"E = 1000.0": "E = inf"}, "[material] E = inf: must be finite"),
     "E-and-lame": ({"rho = 1.0": "rho = 1.0\nlmbda = 3.0"}, "gives E and nu with lmbda"),
@@ -369,6 +387,125 @@ TOML = {
         "[output] columns = ['t', 'energie']: 'energie' is not a column of this run",
     ),
     "output-every-float": ({"every = 10": "every = 1.5"}, "[output] every must be an integer"),
+    "columns-momentum-z": (
+        {"every = 10": 'every = 10\ncolumns = ["t", "momentum_z"]'},
+        "[output] columns = ['t', 'momentum_z']: 'momentum_z' is not a column of this run",
+    ),
+    "columns-second-obstacle": (
+        {"every = 10": 'every = 10\ncolumns = ["t", "contact_force_2"]'},
+        "'contact_force_2' is not a column of this run",
+    ),
+    # point probes
+    "probe-point-outside": (
+        before_output('[[probe]]\nname = "u"\nquantity = "displacement"\npoint = [0.0, 100.0]'),
+        "[[probe]] #1 point = [0.0, 100.0]: is in no cell of the mesh",
+    ),
+    "probe-point-and-facets": (
+        before_output(
+            '[[probe]]\nname = "u"\nquantity = "velocity"\npoint = [0.0, 1.0]\nfacets = 1'
+        ),
+        "[[probe]] #1 gives point and facets: give one of them",
+    ),
+    "probe-point-of-pressure": (
+        before_output('[[probe]]\nname = "p"\nquantity = "contact_pressure"\npoint = [0.0, 1.0]'),
+        "[[probe]] #1 point = [0.0, 1.0]: contact_pressure is a mean over facets, not a value",
+    ),
+    "probe-point-3d": (
+        before_output('[[probe]]\nname = "u"\nquantity = "velocity"\npoint = [0.0, 1.0, 0.0]'),
+        "[[probe]] #1 point = [0.0, 1.0, 0.0]: has 3 components, the mesh is 2D",
+    ),
+    # one component of a Dirichlet value
+    "dirichlet-component-3": (
+        dirichlet("component = 3\nvalue = 0.0"),
+        "[[dirichlet]] #1 component = 3: must be 0 (x), 1 (y) or 2 (z)",
+    ),
+    "dirichlet-component-negative": (
+        dirichlet("component = -1\nvalue = 0.0"),
+        "[[dirichlet]] #1 component = -1: must be 0 (x), 1 (y) or 2 (z)",
+    ),
+    "dirichlet-component-2d": (
+        dirichlet("component = 2\nvalue = 0.0"),
+        "[[dirichlet]] #1 component = 2: the mesh is 2D (components 0 to 1)",
+    ),
+    "dirichlet-component-vector": (
+        dirichlet("component = 0\nvalue = [0.0, 0.0]"),
+        "[[dirichlet]] #1 value = [0.0, 0.0]: has 2 components; one component (component = 0)",
+    ),
+    "dirichlet-component-table": (
+        dirichlet("component = 1\nvalue = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.1]]"),
+        "[[dirichlet]] #1 value = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.1]]: has 2 components;",
+    ),
+    "dirichlet-component-float": (
+        dirichlet("component = 0.0\nvalue = 0.0"),
+        "[[dirichlet]] #1 component must be an integer, got 0.0",
+    ),
+    # facets tagged by selectors
+    "facet-tag-no-selector": (
+        facet_tag(""),
+        "[[facet_tag]] #1 (tag = 9) needs a selector: on_plane, normal_within, in_box",
+    ),
+    "facet-tag-zero": (
+        before_output("[[facet_tag]]\ntag = 0\nnormal_within = { direction = [0.0, -1.0] }"),
+        "[[facet_tag]] #1 tag = 0: must be from 1 to 2^31 - 1",
+    ),
+    "facet-tag-beyond-int32": (
+        before_output("[[facet_tag]]\ntag = 2147483648\nnormal_within = { direction = [0, -1] }"),
+        "[[facet_tag]] #1 tag = 2147483648: must be from 1 to 2^31 - 1",
+    ),
+    "facet-tag-unknown-selector": (
+        facet_tag("on_line = { point = [0.0, 0.0] }"),
+        "[[facet_tag]] #1 unknown key 'on_line' (known: tag, on_plane, normal_within, in_box)",
+    ),
+    "facet-tag-selector-not-table": (
+        facet_tag("on_plane = [0.0, 1.0]"),
+        "[[facet_tag]] #1 on_plane must be an inline table { key = value, ... }, got [0.0, 1.0]",
+    ),
+    "facet-tag-unknown-key": (
+        facet_tag("on_plane = { point = [0.0, 0.0], normal = [0.0, 1.0], origin = [0.0, 0.0] }"),
+        "[[facet_tag]] #1 on_plane unknown key 'origin' (known: point, normal, tolerance)",
+    ),
+    "facet-tag-missing-normal": (
+        facet_tag("on_plane = { point = [0.0, 0.0] }"),
+        "[[facet_tag]] #1 on_plane missing required key 'normal'",
+    ),
+    "facet-tag-nan-point": (
+        facet_tag("on_plane = { point = [nan, 0.0], normal = [0.0, 1.0] }"),
+        "[[facet_tag]] #1 on_plane point = [nan, 0.0]: must be finite",
+    ),
+    "facet-tag-zero-normal": (
+        facet_tag("on_plane = { point = [0.0, 0.0], normal = [0.0, 0.0] }"),
+        "[[facet_tag]] #1 on_plane = {'point': [0.0, 0.0], 'normal': [0.0, 0.0]}: the plane "
+        "normal must not be zero",
+    ),
+    "facet-tag-negative-tolerance": (
+        facet_tag("on_plane = { point = [0.0, 0.0], normal = [0.0, 1.0], tolerance = -1.0 }"),
+        "[[facet_tag]] #1 on_plane tolerance = -1.0: must be >= 0",
+    ),
+    "facet-tag-angle": (
+        facet_tag("normal_within = { direction = [0.0, -1.0], angle = 200.0 }"),
+        "[[facet_tag]] #1 normal_within = {'direction': [0.0, -1.0], 'angle': 200.0}: the angle "
+        "must lie in [0, 180] degrees, got 200.0",
+    ),
+    "facet-tag-box-upside-down": (
+        facet_tag("in_box = { lower = [0.0, 1.0], upper = [1.0, 0.0] }"),
+        "[[facet_tag]] #1 in_box = {'lower': [0.0, 1.0], 'upper': [1.0, 0.0]}: the box needs "
+        "lower <= upper",
+    ),
+    "facet-tag-3d-point": (
+        facet_tag("on_plane = { point = [0.0, 0.0, 0.0], normal = [0.0, 1.0] }"),
+        "[[facet_tag]] #1 on_plane point = [0.0, 0.0, 0.0]: has 3 components, the mesh is 2D",
+    ),
+    "facet-tag-chooses-nothing": (
+        facet_tag("on_plane = { point = [0.0, -5.0], normal = [0.0, 1.0] }"),
+        "[[facet_tag]] #1 tag = 9: its selectors (on_plane) choose no boundary facet of the mesh",
+    ),
+    "facet-tag-none-of-both": (
+        facet_tag(
+            "normal_within = { direction = [0.0, 1.0] }\n"
+            "in_box = { lower = [-10.0, -10.0], upper = [10.0, 0.5] }"
+        ),
+        "[[facet_tag]] #1 tag = 9: its selectors (normal_within, in_box) choose no boundary",
+    ),  # fmt: skip
 }
 
 

@@ -17,7 +17,7 @@ from nitsche_dolfinx.config import (
     load_config,
     output_parameters,
 )
-from nitsche_dolfinx.schema import SCHEMA, describe
+from nitsche_dolfinx.schema import FACET_SELECTORS, SCHEMA, describe
 from nitsche_dolfinx.valueforms import PiecewiseLinear, PolynomialField, Ramp, Sine
 
 
@@ -170,6 +170,10 @@ def test_schema_lists_every_key_with_its_default(capsys):
         assert table.header(name) in text
         for key, spec in table.keys.items():
             assert f"  {key:18s} {spec.kind:14s}" in text, (name, key)
+    for name, table in FACET_SELECTORS.items():
+        section = text[text.index(f"\n{name} = {{ ... }}") :]
+        for key, spec in table.keys.items():
+            assert f"  {key:18s} {spec.kind:14s}" in section, (name, key)
     assert 'default: "hybrid"' in text and "time step tau; required" in text
     assert cli(["schema"]) == 0
     printed = capsys.readouterr().out
