@@ -26,7 +26,7 @@ Importing the package silences the compiler lines that form compilation logs on
 dolfinx 0.5 (set ``NITSCHE_DOLFINX_VERBOSE=1`` to see them).
 """
 
-from . import compat
+from . import compat, form_cache
 from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .diagnostics import BoundaryAverage
 from .history import HISTORY_COLUMNS, History
@@ -50,6 +50,7 @@ from .solver import SNESSolver, SolverError
 __version__ = "0.1.0"
 
 compat.quiet_form_compilation()
+form_cache.recover_abandoned_compilations()
 
 __all__ = [
     "BAR_CLAMPED",
