@@ -10,7 +10,6 @@ from pathlib import Path
 
 import pytest
 from mpi4py import MPI
-
 from runs import environment
 
 # A form of its own (an unusual constant in the integrand) so that no other test shares it.
