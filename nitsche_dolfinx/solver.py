@@ -51,6 +51,7 @@ _REASONS = {
 }
 _prefix_counter = itertools.count()
 _SMALLEST = float(np.finfo(float).tiny)  # an absolute tolerance that 0 passes and no norm
+_KRYLOV_FLOOR = 1.0e-12  # relative tolerance of an inexact linear solve at round-off level
 
 
 class SolverError(RuntimeError):
@@ -189,11 +190,26 @@ class SNESSolver:
             contact between two bodies (:class:`~nitsche_dolfinx.pairs.PairCoupling`):
             ``update(x)`` before each residual, ``add_residual(b)``, and
             ``jacobian_changed()`` / ``add_jacobian(A)`` / ``union_pattern(matrix)``.
+        cell_state: With ``affine_cell_terms``: the Functions other than ``u`` in which the
+            cell terms are affine and which change between solves (the state of the time
+            level); their constant part of the residual is then a matrix-vector product
+            per Function instead of a cell assembly per solve.
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
             Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
             positive definite), about a third cheaper than LU. Under MPI it stays LU:
             MUMPS's parallel LDL^T failed on the ball with PETSc 3.22.
+
+    The PETSc option ``mat_type`` (under the prefix) sets the type of the Jacobian and of
+    the constant matrices (``baij``: 3 x 3 blocks for 3D elasticity, about three times
+    faster products than AIJ); AIJ by default and with a ``coupling``.
+
+    With a Krylov method and no ``ksp_rtol``/``ksp_atol`` of the user's, the linear
+    solves are as inexact as Newton allows (docs/method.md section 8): each stops at
+    :attr:`krylov_safety` times the solve's absolute tolerance (the unpreconditioned
+    residual of the linear solve is the next Newton residual wherever the contact status
+    stays), the first one of a solve with active facet terms already at
+    :attr:`krylov_forcing` times its right-hand side.
 
     Example:
         >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
@@ -214,6 +230,7 @@ class SNESSolver:
         facet_activity: ufl.Form | None = None,
         symmetric: bool = False,
         coupling=None,
+        cell_state=(),
     ):
         self.u = u
         self.bcs = list(bcs)
@@ -236,15 +253,34 @@ class SNESSolver:
         self._zero_norm, self._given_atol = 0.0, None
         self._refresh_preconditioner = True  # factorise P at the next Jacobian (lagged)
         self._jacobian_changes: list[bool] = []
+        self._tight_solves: list[bool] = []  # per linear solve: to the full tolerance
+        self._contact_set_moved = False  # the Jacobian changed after a solve's first iterate
+        if coupling is not None and not affine_cell_terms:
+            raise ValueError("contact between bodies needs affine_cell_terms=True")
+        self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
+        user_options = dict(petsc_options or {})
+        comm = V.mesh.comm
+        options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
+        self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
+        matrix_type = None if coupling is not None else self._matrix_type(options)
         self._split = (
-            AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
+            AffineCellSplit(
+                F,
+                J,
+                self.J_forms,
+                self.bcs,
+                self._D,
+                self._D_bc,
+                facet_activity,
+                unknown=u,
+                state=cell_state,
+                matrix_type=matrix_type,
+            )
             if affine_cell_terms
             else None
         )
-        if coupling is not None and self._split is None:
-            raise ValueError("contact between bodies needs affine_cell_terms=True")
         self._coupling = coupling
-        self._A = self._new_matrix(symmetric)
+        self._A = self._new_matrix(symmetric, matrix_type)
         if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
             self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._P = None
@@ -253,7 +289,6 @@ class SNESSolver:
         self.jacobian_evaluations = 0
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
-        self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
         #: Skip the facet (contact) Jacobian while ``facet_activity`` is zero everywhere;
         #: False assembles it at every evaluation (the reference the skip is checked by).
         self.skip_inactive_facets = True
@@ -264,20 +299,26 @@ class SNESSolver:
         #: residual (semismooth Newton cycling between contact states; the line search
         #: of :meth:`solve_with_line_search` takes over).
         self.stall_limit = 12
+        #: Inexact linear solves (Krylov, tolerances not the user's): the fraction of the
+        #: solve's absolute tolerance at which a linear solve stops, and the relative
+        #: tolerance of the first linear solve while facet (contact) terms are active.
+        self.krylov_safety = 0.1
+        self.krylov_forcing = 1.0e-3
+        self._create_snes(comm, options, user_options, symmetric, matrix_type)
 
-        user_options = dict(petsc_options or {})
-        comm = V.mesh.comm
-        options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
-        self._create_snes(comm, options, user_options, options_prefix, symmetric)
+    def _matrix_type(self, options: dict[str, Any]) -> str | None:
+        """The PETSc option ``mat_type``: the database's under our prefix, else ``options``'."""
+        name = f"{self.options_prefix}mat_type"
+        database = PETSc.Options()
+        return database.getString(name) if database.hasName(name) else options.get("mat_type")
 
-    def _create_snes(self, comm, options, user_options, options_prefix, symmetric) -> None:
+    def _create_snes(self, comm, options, user_options, symmetric, matrix_type) -> None:
         """The SNES with its residual and Jacobian callbacks and ``options``."""
         self.snes = PETSc.SNES().create(comm)
-        self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         self.snes.setOptionsPrefix(self.options_prefix)
         self.snes.setFunction(self._assemble_residual, self._b)
         if self.preconditioner_lag > 0:
-            self._P = self._new_matrix(symmetric)
+            self._P = self._new_matrix(symmetric, matrix_type)
             self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
         else:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
@@ -296,6 +337,11 @@ class SNESSolver:
             self.user_atol = PETSc.Options().getReal(f"{self.options_prefix}snes_atol")
         name = f"{self.options_prefix}snes_linesearch_type"
         self._line_search_type = PETSc.Options().getString(name, "basic")
+        database = PETSc.Options()
+        tolerances = [f"{self.options_prefix}ksp_{name}" for name in ("rtol", "atol")]
+        mine = set(inserted) - set(self._user_option_names)  # the defaults we inserted
+        given = any(database.hasName(name) and name not in mine for name in tolerances)
+        given = given or self.preconditioner_lag > 0  # lagged GMRES: its own tolerances
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -303,15 +349,17 @@ class SNESSolver:
             for name in inserted:
                 if name not in self._user_option_names:
                     PETSc.Options().delValue(name)
+        #: Whether the linear solves are Krylov solves whose tolerances follow Newton's.
+        self.inexact_linear_solves = self.snes.getKSP().getType() != "preonly" and not given
         self.snes.setConvergenceTest(self._converged)
 
-    def _new_matrix(self, symmetric: bool) -> PETSc.Mat:
+    def _new_matrix(self, symmetric: bool, matrix_type: str | None) -> PETSc.Mat:
         """A matrix with the sparsity of J: with the split, a copy of the structure of
         its K_bc (already assembled on that sparsity), else dolfinx's for the form."""
         if self._split is not None:
             matrix = self._split.K_bc.duplicate()  # zero values
         else:
-            matrix = self.J_forms.create_matrix()
+            matrix = self.J_forms.create_matrix(matrix_type)
         if self._coupling is not None:  # and the coupling between the bodies' dofs
             template, matrix = matrix, self._coupling.union_pattern(matrix)
             template.destroy()
@@ -339,7 +387,8 @@ class SNESSolver:
             inserted.append(name)
         return inserted
 
-    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False) -> None:
+        """b = F(x) (``zero``: x is the zero vector, whose product with K is skipped)."""
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if self._coupling is not None:
             self._coupling.update(x)
@@ -351,10 +400,11 @@ class SNESSolver:
             self.F_forms.assemble_vector(b)
         elif self._split.F_facet is not None:
             self._split.F_facet.assemble_vector(b)
-        self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
+        if self.bcs:  # (without conditions, lifting would still pack J's coefficients)
+            self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self._split is not None:
-            self._split.add_cell_residual(x, b)
+            self._split.add_cell_residual(None if zero else x, b)
         elif self._D is not None:
             add_diagonal_product(b, self._D, x)
         if self._coupling is not None:
@@ -400,9 +450,12 @@ class SNESSolver:
         round-off): it came from a full Newton step with the Jacobian that it has itself.
         The bulk is affine and the contact terms piecewise affine, so with the same
         Jacobian (the same contact status at every quadrature point) at both ends of a
-        full step, that step landed on the solution."""
-        changes = self._jacobian_changes
-        return iteration - 1 < len(changes) and not changes[iteration - 1] and self._full_steps
+        full step, that step landed on the solution, if its linear solve was exact: a
+        direct one, or a Krylov solve to the full tolerance (not the forcing of the
+        first, see :meth:`_linear_tolerances`)."""
+        changes, k = self._jacobian_changes, iteration - 1
+        exact_solve = self._tight_solves[k - 1] if 0 < k <= len(self._tight_solves) else False
+        return k < len(changes) and not changes[k] and self._full_steps and exact_solve
 
     def _set_tolerances(self, scale: float, rtol: float) -> None:
         """The absolute tolerance and the round-off bound of the solve under way, from
@@ -411,9 +464,33 @@ class SNESSolver:
         self._atol = max(atol, _SMALLEST)
         self._roundoff_bound = self.roundoff_bound * scale
 
+    def _linear_tolerances(self, ksp) -> None:
+        """The tolerances of the linear solve about to start (with inexact solves).
+
+        Its unpreconditioned residual r = F + J dx is the next Newton residual wherever
+        the contact status stays: it stops at :attr:`krylov_safety` times the solve's
+        absolute tolerance (10^-12 of the right-hand side if that is below round-off).
+        The first solve of a step whose facet (contact) terms are active stops already at
+        :attr:`krylov_forcing` times the right-hand side: its iterate mostly moves the
+        contact set, and the next solve, from a residual that much smaller, ends the job
+        (docs/method.md section 8)."""
+        first = len(self._jacobian_changes) == 1
+        active = self._split is not None and not self._split.inactive
+        moving = self._contact_set_moved  # within the last solve: it is likely to again
+        loose = self.inexact_linear_solves and first and active and moving
+        self._tight_solves.append(not loose)
+        if self.inexact_linear_solves:
+            rtol = self.krylov_forcing if loose else _KRYLOV_FLOOR
+            ksp.setTolerances(rtol=rtol, atol=self.krylov_safety * self._atol)
+
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
         self._jacobian_changes.append(True)
+        self._update_jacobian(snes, A, P)
+        self._linear_tolerances(snes.getKSP())
+
+    def _update_jacobian(self, snes, A: PETSc.Mat, P: PETSc.Mat) -> None:
+        """Assemble the Jacobian into A (and P) where it changed; see :meth:`_assemble_jacobian`."""
         if self._split is None:  # the whole Jacobian
             A.zeroEntries()
             self.J_forms.assemble_matrix(A, self.bcs)
@@ -484,13 +561,14 @@ class SNESSolver:
             self._factorise_at_next_jacobian()
             reason, more = self._run_snes(u_vec)
             iterations += more
+        self._contact_set_moved = any(self._jacobian_changes[1:])
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
 
     def _run_snes(self, u_vec) -> tuple[int, int]:
         """SNES from ``u``, whose value becomes the last iterate; its reason and iterations."""
-        self._jacobian_changes = []
+        self._jacobian_changes, self._tight_solves = [], []
         u_vec.copy(self._x)
         self.snes.solve(None, self._x)
         self._x.copy(u_vec)
@@ -555,7 +633,7 @@ class SNESSolver:
         u_vec = compat.petsc_vector(self.u)
         u_vec.copy(self._x)
         self._zero.set(0.0)
-        self._assemble_residual(self.snes, self._zero, self._b)
+        self._assemble_residual(self.snes, self._zero, self._b, zero=True)
         self._x.copy(u_vec)
         self.u.x.scatter_forward()
         return self._b.norm()

@@ -317,6 +317,7 @@ class NitscheStepper(TimeLevels):
             facet_activity=activity,
             symmetric=problem.symmetric_jacobian,
             coupling=self._pair_coupling(F, state, test, bcs),
+            cell_state=(self.u, self.v, self.a) if reuse_jacobian else (),
         )
 
     def _pair_coupling(self, F, state, test, bcs):
