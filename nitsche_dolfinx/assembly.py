@@ -11,6 +11,7 @@ docs/method.md section 8.
 
 from __future__ import annotations
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -73,8 +74,9 @@ class CellResidualAtZero:
     step: u^n, v^n, a^n), with coefficients that change only with :meth:`update`, so
     ``F_cell(0) = F_cell(0)|_{state = 0} + sum_s (dF_cell / ds) s``: one matrix per state
     function that appears in them, assembled by :meth:`update`, and the rest (the loads)
-    assembled at each call. On P2 cells of second order, a cell assembly costs about
-    25 matrix-vector products (docs/method.md section 8).
+    assembled again only when the values of its constants change (or at each call if it
+    holds Functions). On P2 cells of second order, a cell assembly costs about 25
+    matrix-vector products (docs/method.md section 8).
     """
 
     def __init__(self, F_cell: ufl.Form, unknown: fem.Function, state, matrix_type=None):
@@ -83,6 +85,10 @@ class CellResidualAtZero:
         zeros = {f: ufl.zero(*f.ufl_shape) for f in (unknown, *state)}
         rest = ufl.replace(F_cell, zeros)
         self._rest = None if rest.empty() else Forms(rest)
+        self._rest_vector = compat.create_vector(V)
+        # with constants only, the rest changes only with their values
+        self._constants = None if rest.empty() or rest.coefficients() else rest.constants()
+        self._rest_key = None
         self._terms = []  # (Forms, matrix, state function)
         for function in state:
             derivative = expand_derivatives(ufl.derivative(F_cell, function, trial))
@@ -106,16 +112,23 @@ class CellResidualAtZero:
 
     def assemble(self, b: PETSc.Vec) -> None:
         """b = F_cell(0) at the current state (owned entries)."""
-        with b.localForm() as local:
-            local.set(0.0)
-        if self._rest is not None:
-            self._rest.assemble_vector(b)
-            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        key = None
+        if self._constants is not None:
+            key = tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+        if key is None or key != self._rest_key:
+            rest = self._rest_vector
+            with rest.localForm() as local:
+                local.set(0.0)
+            if self._rest is not None:
+                self._rest.assemble_vector(rest)
+                rest.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._rest_key = key
+        self._rest_vector.copy(b)
         for _, matrix, function in self._terms:
             matrix.multAdd(compat.petsc_vector(function), b, b)
 
     def petsc_objects(self) -> list:
-        return [matrix for _, matrix, _ in self._terms]
+        return [self._rest_vector] + [matrix for _, matrix, _ in self._terms]
 
 
 class AffineCellSplit:
@@ -171,6 +184,7 @@ class AffineCellSplit:
         # without Dirichlet conditions K is K_bc: one matrix less
         self.K = self._J_cell.create_matrix(matrix_type) if bcs else self.K_bc
         self._at_zero = None
+        self._B_rows = None  # the local rows of B with entries
         self.update_K()
         if state:
             self._at_zero = CellResidualAtZero(F_cell, unknown, state, matrix_type)
@@ -200,6 +214,7 @@ class AffineCellSplit:
                 matrix.assemble()
         if self._at_zero is not None:
             self._at_zero.update()
+        self._summed_into, self._K_rows = None, None  # A = K_bc + B in full next time
 
     def update_cell_residual(self, u: fem.Function) -> None:
         """F_cell(0) for the current coefficients (with the state: by matrix-vector
@@ -262,10 +277,39 @@ class AffineCellSplit:
         return True
 
     def sum_into(self, A: PETSc.Mat) -> None:
-        """A = K_bc + B (A on the sparsity of K_bc, which holds B's)."""
-        self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        if self.B is not None:
+        """A = K_bc + B (A on the sparsity of K_bc, which holds B's): the first time after
+        :meth:`update_K` in full, then only on the rows of B's sparsity, which the facet
+        terms touch (the same sums, so the same values to the bit)."""
+        if self.B is None:
+            self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        elif self._summed_into is not A:
+            self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            self._summed_into = A
+        else:
+            rows, indptr, columns, values = self._facet_rows_of_K()
+            A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
+            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
+            B_indptr, B_columns, B_values = self.B.getValuesCSR()
+            indptr = np.concatenate(([0], np.cumsum(np.diff(B_indptr)[self._B_rows])))
+            A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
+            A.assemble()
+
+    def _facet_rows_of_K(self):
+        """The rows of K_bc where B has entries, in CSR form: (global rows, row pointers,
+        global columns, values); read once after each :meth:`update_K`."""
+        if self._K_rows is None:
+            first = self.B.getOwnershipRange()[0]
+            B_indptr = self.B.getValuesCSR()[0]
+            self._B_rows = np.flatnonzero(np.diff(B_indptr) > 0)
+            rows = (first + self._B_rows).astype(PETSc.IntType)
+            entries = [self.K_bc.getRow(row) for row in rows]
+            lengths = [len(columns) for columns, _ in entries]
+            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+            columns = np.concatenate([c for c, _ in entries] or [[]]).astype(PETSc.IntType)
+            values = np.concatenate([v for _, v in entries] or [[]])
+            self._K_rows = (rows, indptr, columns, values)
+        return self._K_rows
 
     def add_into(self, A: PETSc.Mat) -> None:
         """A += K_bc + B, for an A whose sparsity holds theirs (and more)."""

@@ -100,6 +100,16 @@ def _diagonal_matrix(diagonal):
     return matrix
 
 
+def _assembled(form) -> PETSc.Mat:
+    """The matrix of a bilinear form, in blocks of the space's block size (BAIJ: for 3D
+    vectors, products about three times faster than AIJ)."""
+    compiled = fem.form(form)
+    matrix = compat.create_matrix(compiled, "baij")
+    fem_petsc.assemble_matrix(matrix, compiled)
+    matrix.assemble()
+    return matrix
+
+
 def _total(forms: list, zero):
     """The sum of a list of forms, or ``zero`` for an empty list."""
     return sum(forms[1:], forms[0]) if forms else zero
@@ -121,18 +131,24 @@ class Penetration:
         if model.contacts:
             P = compat.function_space(model.mesh, "Lagrange", model.degree)
             fdim = model.mesh.topology.dim - 1
+            model.mesh.topology.create_connectivity(fdim, fdim + 1)
+            facet_cells = model.mesh.topology.connectivity(fdim, fdim + 1)
             for contact, tag in zip(model.contacts, model.contact_tags):
                 field = fem.Function(P)
                 expression = compat.expression(contact.penetration(u), P)
-                dofs = fem.locate_dofs_topological(P, fdim, model.facets(tag))
-                self._fields.append((field, expression, dofs))
+                facets = model.facets(tag)
+                dofs = fem.locate_dofs_topological(P, fdim, facets)
+                # interpolated on the cells at Gamma_C only: they hold its dofs
+                cells = [facet_cells.links(facet) for facet in facets]
+                cells = np.unique(np.concatenate(cells)) if cells else np.zeros(0)
+                self._fields.append((field, expression, dofs, cells.astype(np.int32)))
 
     def max(self) -> float:
         """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""
         local = -np.inf
         self.model.update_partners()
-        for field, expression, dofs in self._fields:
-            field.interpolate(expression)
+        for field, expression, dofs, cells in self._fields:
+            field.interpolate(expression, cells)
             if len(dofs):
                 local = max(local, float(field.x.array[dofs].max()))
         return self.comm.allreduce(local, op=MPI.MAX)
@@ -155,12 +171,11 @@ class Diagnostics:
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         diagonal = model.mass_diagonal()
         if diagonal is None:
-            self._mass = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+            self._mass = _assembled(model.inertia(trial, test))
         else:  # lumped or redistributed mass: a diagonal matrix
             self._mass = _diagonal_matrix(diagonal)
-        self._mass.assemble()
-        self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
-        self._stiffness.assemble()
+            self._mass.assemble()
+        self._stiffness = _assembled(model.bulk_stiffness(trial, test))
         self._work = self._mass.createVecLeft()
         self._bs = model.V.dofmap.index_map_bs
         #: the total linear momentum, the rows of M v summed by component

@@ -11,7 +11,10 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+from dolfinx import fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from . import compat
 from .parameters import require_choice
@@ -20,10 +23,12 @@ __all__ = [
     "AUTO_COURANT",
     "AUTO_GAMG_DOFS",
     "LINEAR_SOLVERS",
+    "InexactSolves",
     "LinearSolver",
     "choose_linear_solver",
     "courant_number",
     "linear_solver",
+    "rigid_body_modes",
 ]
 
 #: The presets: name -> what it is.
@@ -130,3 +135,86 @@ def choose_linear_solver(problem, dt: float) -> str:
     if index_map.size_global * problem.V.dofmap.index_map_bs < AUTO_GAMG_DOFS:
         return "lu"
     return "cg-gamg" if problem.symmetric_jacobian else "gmres-gamg"
+
+
+class InexactSolves:
+    """When the Krylov solve of a Newton iteration may stop (docs/method.md section 8).
+
+    The unpreconditioned residual r = F + J dx of a linear solve is the next Newton
+    residual wherever the contact status stays: a solve stops at :attr:`safety` times
+    the Newton solve's absolute tolerance (at 10^-12 of its right-hand side if that is
+    below round-off). The first solve of a Newton solve whose facet (contact) terms are
+    active stops at :attr:`forcing` times its right-hand side if the contact set moved
+    within the last Newton solve: its iterate then mostly moves the contact set, and the
+    next solve, from a residual that much smaller, ends the job. Where the set stays
+    (a step in free flight, or in steady contact) every solve is a full one, so Newton
+    takes the iterations it takes with a direct solve.
+
+    Args:
+        enabled: Whether the solves are Krylov solves with these tolerances (False: a
+            direct solve, or tolerances of the user's; every solve counts as full).
+    """
+
+    #: The relative tolerance of a full solve whose absolute one is below round-off.
+    floor = 1.0e-12
+
+    def __init__(self, enabled: bool):
+        self.enabled = bool(enabled)
+        self.safety = 0.1
+        self.forcing = 1.0e-3
+        self._full: list[bool] = []  # per linear solve of the Newton solve under way
+        self._moved = False  # the contact set moved after the first iterate, last time
+
+    def start(self) -> None:
+        """A Newton solve begins."""
+        self._full = []
+
+    def finish(self, jacobian_changes: list[bool]) -> None:
+        """A Newton solve ended; ``jacobian_changes[k]``: whether the Jacobian at iterate
+        k differed from the one before (the contact set moved)."""
+        self._moved = any(jacobian_changes[1:])
+
+    def set(self, ksp, first: bool, active: bool, atol: float) -> None:
+        """Set ``ksp``'s tolerances for the solve about to start: the first of its Newton
+        solve or not, with ``active`` facet terms, Newton's absolute tolerance ``atol``."""
+        loose = self.enabled and first and active and self._moved
+        self._full.append(not loose)
+        if self.enabled:
+            ksp.setTolerances(rtol=self.forcing if loose else self.floor, atol=self.safety * atol)
+
+    def full(self, index: int) -> bool:
+        """Whether linear solve ``index`` of the Newton solve under way was a full one."""
+        return 0 <= index < len(self._full) and self._full[index]
+
+
+def rigid_body_modes(V) -> list[PETSc.Vec]:
+    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
+
+    gdim translations and the rotations about the coordinate axes: one in 2D,
+    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
+    """
+    gdim = V.mesh.geometry.dim
+
+    def translation(i):
+        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
+
+    def zero(x):
+        return np.zeros(x.shape[1])
+
+    modes = [translation(i) for i in range(gdim)]
+    if gdim == 2:
+        modes.append(lambda x: np.stack((-x[1], x[0])))
+    else:
+        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
+        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
+        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
+    function = fem.Function(V)
+    vectors = []
+    for mode in modes:
+        function.interpolate(mode)
+        vector = compat.petsc_vector(function).copy()
+        for other in vectors:  # Gram-Schmidt
+            vector.axpy(-vector.dot(other), other)
+        vector.normalize()
+        vectors.append(vector)
+    return vectors

@@ -29,11 +29,12 @@ from .checkpoint import (
 )
 from .history import HISTORY_COLUMNS, History
 from .linear_solvers import linear_solver as linear_solver_preset
+from .linear_solvers import rigid_body_modes
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .parameters import OutputParameters, TimeStepping
 from .schemes import TimeScheme
-from .solver import SolverError, rigid_body_modes
+from .solver import SolverError
 from .stepper import NitscheStepper, Stepper
 
 __all__ = ["Simulation"]

@@ -20,6 +20,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .assembly import AffineCellSplit, Forms, add_diagonal_product
+from .linear_solvers import InexactSolves, rigid_body_modes
 
 __all__ = [
     "DEFAULT_PETSC_OPTIONS",
@@ -51,7 +52,6 @@ _REASONS = {
 }
 _prefix_counter = itertools.count()
 _SMALLEST = float(np.finfo(float).tiny)  # an absolute tolerance that 0 passes and no norm
-_KRYLOV_FLOOR = 1.0e-12  # relative tolerance of an inexact linear solve at round-off level
 
 
 class SolverError(RuntimeError):
@@ -123,39 +123,6 @@ def _mumps_available(comm) -> bool:
     return _MUMPS["found"]
 
 
-def rigid_body_modes(V) -> list[PETSc.Vec]:
-    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
-
-    gdim translations and the rotations about the coordinate axes: one in 2D,
-    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
-    """
-    gdim = V.mesh.geometry.dim
-
-    def translation(i):
-        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
-
-    def zero(x):
-        return np.zeros(x.shape[1])
-
-    modes = [translation(i) for i in range(gdim)]
-    if gdim == 2:
-        modes.append(lambda x: np.stack((-x[1], x[0])))
-    else:
-        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
-        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
-        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
-    function = fem.Function(V)
-    vectors = []
-    for mode in modes:
-        function.interpolate(mode)
-        vector = compat.petsc_vector(function).copy()
-        for other in vectors:  # Gram-Schmidt
-            vector.axpy(-vector.dot(other), other)
-        vector.normalize()
-        vectors.append(vector)
-    return vectors
-
-
 class SNESSolver:
     """Solve the nonlinear problem F(u; v) = 0 for all v with PETSc SNES.
 
@@ -205,11 +172,8 @@ class SNESSolver:
     faster products than AIJ); AIJ by default and with a ``coupling``.
 
     With a Krylov method and no ``ksp_rtol``/``ksp_atol`` of the user's, the linear
-    solves are as inexact as Newton allows (docs/method.md section 8): each stops at
-    :attr:`krylov_safety` times the solve's absolute tolerance (the unpreconditioned
-    residual of the linear solve is the next Newton residual wherever the contact status
-    stays), the first one of a solve with active facet terms already at
-    :attr:`krylov_forcing` times its right-hand side.
+    solves are as inexact as Newton allows: :attr:`linear_tolerances`
+    (:class:`~nitsche_dolfinx.linear_solvers.InexactSolves`).
 
     Example:
         >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
@@ -253,8 +217,6 @@ class SNESSolver:
         self._zero_norm, self._given_atol = 0.0, None
         self._refresh_preconditioner = True  # factorise P at the next Jacobian (lagged)
         self._jacobian_changes: list[bool] = []
-        self._tight_solves: list[bool] = []  # per linear solve: to the full tolerance
-        self._contact_set_moved = False  # the Jacobian changed after a solve's first iterate
         if coupling is not None and not affine_cell_terms:
             raise ValueError("contact between bodies needs affine_cell_terms=True")
         self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
@@ -263,19 +225,9 @@ class SNESSolver:
         options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         matrix_type = None if coupling is not None else self._matrix_type(options)
+        terms = (F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
         self._split = (
-            AffineCellSplit(
-                F,
-                J,
-                self.J_forms,
-                self.bcs,
-                self._D,
-                self._D_bc,
-                facet_activity,
-                unknown=u,
-                state=cell_state,
-                matrix_type=matrix_type,
-            )
+            AffineCellSplit(*terms, unknown=u, state=cell_state, matrix_type=matrix_type)
             if affine_cell_terms
             else None
         )
@@ -299,11 +251,6 @@ class SNESSolver:
         #: residual (semismooth Newton cycling between contact states; the line search
         #: of :meth:`solve_with_line_search` takes over).
         self.stall_limit = 12
-        #: Inexact linear solves (Krylov, tolerances not the user's): the fraction of the
-        #: solve's absolute tolerance at which a linear solve stops, and the relative
-        #: tolerance of the first linear solve while facet (contact) terms are active.
-        self.krylov_safety = 0.1
-        self.krylov_forcing = 1.0e-3
         self._create_snes(comm, options, user_options, symmetric, matrix_type)
 
     def _matrix_type(self, options: dict[str, Any]) -> str | None:
@@ -349,8 +296,9 @@ class SNESSolver:
             for name in inserted:
                 if name not in self._user_option_names:
                     PETSc.Options().delValue(name)
-        #: Whether the linear solves are Krylov solves whose tolerances follow Newton's.
-        self.inexact_linear_solves = self.snes.getKSP().getType() != "preonly" and not given
+        #: When the linear solves stop: Krylov solves whose tolerances follow Newton's.
+        krylov = self.snes.getKSP().getType() != "preonly"
+        self.linear_tolerances = InexactSolves(krylov and not given)
         self.snes.setConvergenceTest(self._converged)
 
     def _new_matrix(self, symmetric: bool, matrix_type: str | None) -> PETSc.Mat:
@@ -369,7 +317,7 @@ class SNESSolver:
 
     def set_near_nullspace(self, vectors: list[PETSc.Vec]) -> None:
         """Give algebraic multigrid (``pc_type gamg``) the near-nullspace of the Jacobian,
-        e.g. :func:`rigid_body_modes`."""
+        e.g. :func:`~nitsche_dolfinx.linear_solvers.rigid_body_modes`."""
         nullspace = PETSc.NullSpace().create(vectors=vectors, comm=self.u.function_space.mesh.comm)
         self._A.setNearNullSpace(nullspace)
         if self._P is not None:
@@ -451,11 +399,11 @@ class SNESSolver:
         The bulk is affine and the contact terms piecewise affine, so with the same
         Jacobian (the same contact status at every quadrature point) at both ends of a
         full step, that step landed on the solution, if its linear solve was exact: a
-        direct one, or a Krylov solve to the full tolerance (not the forcing of the
-        first, see :meth:`_linear_tolerances`)."""
+        direct one, or a full Krylov solve (see
+        :class:`~nitsche_dolfinx.linear_solvers.InexactSolves`)."""
         changes, k = self._jacobian_changes, iteration - 1
-        exact_solve = self._tight_solves[k - 1] if 0 < k <= len(self._tight_solves) else False
-        return k < len(changes) and not changes[k] and self._full_steps and exact_solve
+        full = self.linear_tolerances.full(k - 1)
+        return k < len(changes) and not changes[k] and self._full_steps and full
 
     def _set_tolerances(self, scale: float, rtol: float) -> None:
         """The absolute tolerance and the round-off bound of the solve under way, from
@@ -464,30 +412,13 @@ class SNESSolver:
         self._atol = max(atol, _SMALLEST)
         self._roundoff_bound = self.roundoff_bound * scale
 
-    def _linear_tolerances(self, ksp) -> None:
-        """The tolerances of the linear solve about to start (with inexact solves).
-
-        Its unpreconditioned residual r = F + J dx is the next Newton residual wherever
-        the contact status stays: it stops at :attr:`krylov_safety` times the solve's
-        absolute tolerance (10^-12 of the right-hand side if that is below round-off).
-        The first solve of a step whose facet (contact) terms are active stops already at
-        :attr:`krylov_forcing` times the right-hand side: its iterate mostly moves the
-        contact set, and the next solve, from a residual that much smaller, ends the job
-        (docs/method.md section 8)."""
-        first = len(self._jacobian_changes) == 1
-        active = self._split is not None and not self._split.inactive
-        moving = self._contact_set_moved  # within the last solve: it is likely to again
-        loose = self.inexact_linear_solves and first and active and moving
-        self._tight_solves.append(not loose)
-        if self.inexact_linear_solves:
-            rtol = self.krylov_forcing if loose else _KRYLOV_FLOOR
-            ksp.setTolerances(rtol=rtol, atol=self.krylov_safety * self._atol)
-
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
         self._jacobian_changes.append(True)
         self._update_jacobian(snes, A, P)
-        self._linear_tolerances(snes.getKSP())
+        active = self._split is not None and not self._split.inactive
+        first = len(self._jacobian_changes) == 1
+        self.linear_tolerances.set(snes.getKSP(), first, active, self._atol)
 
     def _update_jacobian(self, snes, A: PETSc.Mat, P: PETSc.Mat) -> None:
         """Assemble the Jacobian into A (and P) where it changed; see :meth:`_assemble_jacobian`."""
@@ -561,16 +492,17 @@ class SNESSolver:
             self._factorise_at_next_jacobian()
             reason, more = self._run_snes(u_vec)
             iterations += more
-        self._contact_set_moved = any(self._jacobian_changes[1:])
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
 
     def _run_snes(self, u_vec) -> tuple[int, int]:
         """SNES from ``u``, whose value becomes the last iterate; its reason and iterations."""
-        self._jacobian_changes, self._tight_solves = [], []
+        self._jacobian_changes = []
+        self.linear_tolerances.start()
         u_vec.copy(self._x)
         self.snes.solve(None, self._x)
+        self.linear_tolerances.finish(self._jacobian_changes)
         self._x.copy(u_vec)
         self.u.x.scatter_forward()
         return self.snes.getConvergedReason(), self.snes.getIterationNumber()
