@@ -363,7 +363,7 @@ def main() -> None:
     parser.add_argument("--mesh-sizes", type=float, nargs="+", default=[8.0, 6.0, 4.5])
     parser.add_argument("--t-end", type=float, default=40.0)
     parser.add_argument("--scheme", default="hybrid")
-    parser.add_argument("--linear-solver", choices=[*LINEAR_SOLVERS, "lu-petsc"], default="lu")
+    parser.add_argument("--linear-solver", choices=[*LINEAR_SOLVERS, "lu-petsc"], default="auto")
     parser.add_argument("--out", help="scaling mode: write OUT/scaling.csv and OUT/scaling.png")
     parser.add_argument(
         "--ranks", type=int, nargs="+", default=[1, 2], help="scaling mode: numbers of ranks"

@@ -131,17 +131,15 @@ class Penetration:
         if model.contacts:
             P = compat.function_space(model.mesh, "Lagrange", model.degree)
             fdim = model.mesh.topology.dim - 1
-            model.mesh.topology.create_connectivity(fdim, fdim + 1)
-            facet_cells = model.mesh.topology.connectivity(fdim, fdim + 1)
+            cell_dofs = compat.dofmap_array(P)
             for contact, tag in zip(model.contacts, model.contact_tags):
                 field = fem.Function(P)
                 expression = compat.expression(contact.penetration(u), P)
-                facets = model.facets(tag)
-                dofs = fem.locate_dofs_topological(P, fdim, facets)
-                # interpolated on the cells at Gamma_C only: they hold its dofs
-                cells = [facet_cells.links(facet) for facet in facets]
-                cells = np.unique(np.concatenate(cells)) if cells else np.zeros(0)
-                self._fields.append((field, expression, dofs, cells.astype(np.int32)))
+                dofs = fem.locate_dofs_topological(P, fdim, model.facets(tag))
+                # interpolated only on the cells that hold these dofs (also those of a
+                # facet on another rank), not on the whole mesh
+                cells = np.flatnonzero(np.isin(cell_dofs, dofs).any(axis=1)).astype(np.int32)
+                self._fields.append((field, expression, dofs, cells))
 
     def max(self) -> float:
         """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""

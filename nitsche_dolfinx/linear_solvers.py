@@ -20,12 +20,14 @@ from . import compat
 from .parameters import require_choice
 
 __all__ = [
+    "AUTO_CONTACT_STIFFNESS",
     "AUTO_COURANT",
     "AUTO_GAMG_DOFS",
     "LINEAR_SOLVERS",
     "InexactSolves",
     "LinearSolver",
     "choose_linear_solver",
+    "contact_stiffness",
     "courant_number",
     "linear_solver",
     "rigid_body_modes",
@@ -48,6 +50,10 @@ LINEAR_SOLVERS = {
 #: ``"auto"`` takes cg-jacobi up to this Courant number c tau / h_min (measured on the
 #: ball, docs/method.md section 8: about 13 iterations per free step up to 1, 375 at 3).
 AUTO_COURANT = 1.0
+#: ... and up to this contact stiffness tau^2 / (rho gamma_h h) (:func:`contact_stiffness`;
+#: measured, docs/method.md section 8: on the disk cg-jacobi gives lu's history to 2e-11
+#: at 10, 2e-9 at 62 and 1e-7 at 625; two bars at 2.5e5 differ by 5e-4).
+AUTO_CONTACT_STIFFNESS = 100.0
 #: Beyond the Courant number above, ``"auto"`` takes cg-gamg from this many DOFs (lu below).
 AUTO_GAMG_DOFS = 200_000
 
@@ -104,16 +110,34 @@ def linear_solver(name: str, comm, problem=None, dt: float | None = None) -> Lin
     return LinearSolver(name, options, 0, True, f"{name} (rigid-body near-nullspace)")
 
 
+def _smallest_cell(problem) -> float:
+    """h_min, the smallest h_T (largest vertex distance of a cell) over all ranks."""
+    local = problem.h.x.array
+    return problem.mesh.comm.allreduce(float(local.min()) if local.size else math.inf, MPI.MIN)
+
+
 def courant_number(problem, dt: float) -> float:
     """c tau / h_min: the time step over the time a pressure wave, of speed
     c = sqrt((lambda + 2 mu) / rho), takes to cross the smallest cell (h_T its largest
     vertex distance; collective). Below about 1 the mass dominates the step's Jacobian."""
     material = problem.material
     speed = math.sqrt((material.lmbda + 2.0 * material.mu) / material.rho)
-    comm = problem.mesh.comm
-    local = problem.h.x.array
-    h_min = comm.allreduce(float(local.min()) if local.size else math.inf, op=MPI.MIN)
-    return speed * float(dt) / h_min
+    return speed * float(dt) / _smallest_cell(problem)
+
+
+def contact_stiffness(problem, dt: float) -> float:
+    """tau^2 / (rho gamma_h h) on the smallest cell: the contact terms of the step's
+    Jacobian, about (tau^2 / gamma_h) h^(d-1) on a contact node, against its mass
+    rho h^d (collective; 0 without contact). Large, the contact rows dominate the
+    Jacobian and the scale of the step's equation, and a Krylov solve to Newton's
+    tolerance no longer gives a direct solve's states."""
+    if not problem.contacts:
+        return 0.0
+    h_min = _smallest_cell(problem)
+    gamma_h = float(np.asarray(problem.gamma0.value)) * h_min
+    if problem.gamma0_scaling == "E":
+        gamma_h /= problem.material.E
+    return float(dt) ** 2 / (problem.material.rho * gamma_h * h_min)
 
 
 def choose_linear_solver(problem, dt: float) -> str:
@@ -121,13 +145,15 @@ def choose_linear_solver(problem, dt: float) -> str:
 
     cg-jacobi when the Jacobian is symmetric and positive definite with the mass
     dominating it: Nitsche or penalty with Theta = 1, no friction, every node with mass
-    (not the redistributed mass), and :func:`courant_number` at most
-    :data:`AUTO_COURANT`. Otherwise lu, or from :data:`AUTO_GAMG_DOFS` DOFs on
-    (except for the mixed method) cg-gamg, gmres-gamg for a non-symmetric Jacobian.
+    (not the redistributed mass), :func:`courant_number` at most :data:`AUTO_COURANT`
+    and :func:`contact_stiffness` at most :data:`AUTO_CONTACT_STIFFNESS`. Otherwise
+    lu, or from :data:`AUTO_GAMG_DOFS` DOFs on (except for the mixed method) cg-gamg,
+    gmres-gamg for a non-symmetric Jacobian.
     """
     massive = problem.mass != "redistributed"
     if problem.method != "mixed" and problem.symmetric_jacobian and massive:
-        if courant_number(problem, dt) <= AUTO_COURANT:
+        soft = contact_stiffness(problem, dt) <= AUTO_CONTACT_STIFFNESS
+        if soft and courant_number(problem, dt) <= AUTO_COURANT:
             return "cg-jacobi"
     if problem.method == "mixed":
         return "lu"  # a saddle point: no multigrid of ours for it
@@ -163,7 +189,9 @@ class InexactSolves:
         self.safety = 0.1
         self.forcing = 1.0e-3
         self._full: list[bool] = []  # per linear solve of the Newton solve under way
-        self._moved = False  # the contact set moved after the first iterate, last time
+        #: Whether the contact set moved after the first iterate of the last Newton solve
+        #: (part of a checkpoint: a restart then solves as the uninterrupted run).
+        self.moved = False
 
     def start(self) -> None:
         """A Newton solve begins."""
@@ -172,12 +200,12 @@ class InexactSolves:
     def finish(self, jacobian_changes: list[bool]) -> None:
         """A Newton solve ended; ``jacobian_changes[k]``: whether the Jacobian at iterate
         k differed from the one before (the contact set moved)."""
-        self._moved = any(jacobian_changes[1:])
+        self.moved = any(jacobian_changes[1:])
 
     def set(self, ksp, first: bool, active: bool, atol: float) -> None:
         """Set ``ksp``'s tolerances for the solve about to start: the first of its Newton
         solve or not, with ``active`` facet terms, Newton's absolute tolerance ``atol``."""
-        loose = self.enabled and first and active and self._moved
+        loose = self.enabled and first and active and self.moved
         self._full.append(not loose)
         if self.enabled:
             ksp.setTolerances(rtol=self.forcing if loose else self.floor, atol=self.safety * atol)

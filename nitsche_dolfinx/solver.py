@@ -116,6 +116,11 @@ def _solver_options(comm, user_options: dict, lag: int, symmetric: bool) -> dict
     return options
 
 
+def _read_at_each_solve(name: str) -> bool:
+    """Whether PETSc reads the option ``name`` again at each solve (viewers, monitors)."""
+    return any(word in name for word in ("view", "converged_reason", "monitor"))
+
+
 def _mumps_available(comm) -> bool:
     """compat.has_mumps, asked once per process."""
     if "found" not in _MUMPS:
@@ -241,6 +246,8 @@ class SNESSolver:
         self.jacobian_evaluations = 0
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
+        #: How many times a failed Krylov solve made the solver factorise from then on.
+        self.direct_fallbacks = 0
         #: Skip the facet (contact) Jacobian while ``facet_activity`` is zero everywhere;
         #: False assembles it at every evaluation (the reference the skip is checked by).
         self.skip_inactive_facets = True
@@ -272,10 +279,12 @@ class SNESSolver:
         compat.set_divergence_tolerance(self.snes, 1.0e300)  # contact residuals may jump
         inserted = self._insert_options(options)
         # The database is global and bounded (512 entries in PETSc 3.18): take the
-        # defaults out once read; the user's options stay until destroy(), since some
-        # (monitors, converged-reason views) are read again at every solve.
+        # options out once read, except the user's viewers and monitors, which PETSc
+        # reads again at every solve (they stay until destroy()).
         self._user_option_names = [
-            name for name in inserted if name[len(self.options_prefix) :] in user_options
+            name
+            for name in inserted
+            if name[len(self.options_prefix) :] in user_options and _read_at_each_solve(name)
         ]
         #: An absolute tolerance the user set (``snes_atol``), obeyed as given; None: the
         #: tolerance follows the scale of each solve's equation (see :meth:`solve`).
@@ -286,8 +295,8 @@ class SNESSolver:
         self._line_search_type = PETSc.Options().getString(name, "basic")
         database = PETSc.Options()
         tolerances = [f"{self.options_prefix}ksp_{name}" for name in ("rtol", "atol")]
-        mine = set(inserted) - set(self._user_option_names)  # the defaults we inserted
-        given = any(database.hasName(name) and name not in mine for name in tolerances)
+        defaults = {f"{self.options_prefix}{key}" for key in options if key not in user_options}
+        given = any(database.hasName(n) and n not in defaults for n in tolerances)
         given = given or self.preconditioner_lag > 0  # lagged GMRES: its own tolerances
         try:
             self.snes.setFromOptions()
@@ -486,15 +495,35 @@ class SNESSolver:
         self._full_steps = self._line_search_type == "basic"
         start = self.u.x.array.copy()
         reason, iterations = self._run_snes(u_vec)
-        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._P is not None:
-            # GMRES on a lagged factorisation gave up: again, factorising the Jacobian
+        failed = reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE
+        if failed and (self._P is not None or self.linear_tolerances.enabled):
+            # GMRES on a lagged factorisation, or the Krylov method of a preset, gave up:
+            # again, factorising the Jacobian
             self.u.x.array[:] = start
-            self._factorise_at_next_jacobian()
+            if self._P is not None:
+                self._factorise_at_next_jacobian()
+            else:
+                self._direct_solves_from_now_on()
             reason, more = self._run_snes(u_vec)
             iterations += more
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
+
+    def _direct_solves_from_now_on(self) -> None:
+        """Factorise the Jacobian (LU, MUMPS's where PETSc has it) instead of the Krylov
+        method whose solve failed: with conjugate gradients, a Jacobian that is not
+        positive definite (gamma0 beyond the stability limit of the mesh)."""
+        ksp = self.snes.getKSP()
+        ksp.reset()
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        if _mumps_available(self.u.function_space.mesh.comm):
+            ksp.getPC().setFactorSolverType("mumps")
+        self.linear_tolerances.enabled = False
+        self.direct_fallbacks += 1
+        if self._split is not None:
+            self._factorise_at_next_jacobian()
 
     def _run_snes(self, u_vec) -> tuple[int, int]:
         """SNES from ``u``, whose value becomes the last iterate; its reason and iterations."""
@@ -542,7 +571,8 @@ class SNESSolver:
         """Solve with the SNES line search ``kind`` (e.g. ``"l2"``) inside the block."""
         database = PETSc.Options()
         name = f"{self.options_prefix}snes_linesearch_type"
-        previous = database.getString(name) if database.hasName(name) else None
+        kept = database.hasName(name)  # set in the database by the user
+        previous = database.getString(name) if kept else self._line_search_type
         database[name] = kind
         self.snes.setFromOptions()
         before, self._line_search_type = self._line_search_type, kind
@@ -550,9 +580,9 @@ class SNESSolver:
             yield
         finally:
             self._line_search_type = before
-            database[name] = previous or DEFAULT_PETSC_OPTIONS["snes_linesearch_type"]
+            database[name] = previous
             self.snes.setFromOptions()
-            if previous is None:
+            if not kept:
                 database.delValue(name)
 
     def equation_scale(self, new_coefficients: bool = True) -> float:
