@@ -282,16 +282,17 @@ class AffineCellSplit:
         terms touch (the same sums, so the same values to the bit)."""
         if self.B is None:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        elif self._summed_into is not A:
+        elif self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-            self._summed_into = A
+            self._summed_into = A.handle
         else:
             rows, indptr, columns, values = self._facet_rows_of_K()
             A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
             A.assemble(PETSc.Mat.AssemblyType.FLUSH)
             B_indptr, B_columns, B_values = self.B.getValuesCSR()
-            indptr = np.concatenate(([0], np.cumsum(np.diff(B_indptr)[self._B_rows])))
+            lengths = np.diff(B_indptr)[self._B_rows]
+            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
             A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
             A.assemble()
 
