@@ -110,3 +110,32 @@ def test_cell_residual_at_zero_by_products_equals_its_assembly(scheme):
         difference.axpy(-1.0, assembled)
         assert difference.norm() <= 1e-13 * assembled.norm()
         assert assembled.norm() > 0.0
+
+
+@pytest.mark.mpi
+def test_jacobian_summed_by_rows_is_the_assembled_jacobian():
+    """In contact the Jacobian K_bc + B is summed again on B's rows only: at iterates whose
+    contact sets differ, it equals the Jacobian form assembled at that iterate."""
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+
+    from nitsche_dolfinx import HybridScheme, Simulation
+    from nitsche_dolfinx.cases import impact_problem
+
+    problem = impact_problem(dim=2, mesh_size=8.0, comm=MPI.COMM_WORLD)
+    simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=12.0, linear_solver="cg-jacobi")
+    for _ in range(105):  # in contact from t = 10
+        simulation.step()
+    solver = simulation.solver
+    w = compat.petsc_vector(solver.u)
+    A = solver.snes.getJacobian()[0]
+    for scale in (1.0, 1.5, 0.5, 1.0):
+        x = w.copy()
+        x.scale(scale)  # other contact sets: B's rows change
+        solver.snes.computeJacobian(x, A)
+        direct = fem_petsc.assemble_matrix(solver.J_forms.form)
+        direct.assemble()
+        difference = A.convert("aij", PETSc.Mat())
+        difference.axpy(-1.0, direct, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        assert difference.norm() <= 1e-14 * direct.norm()
+    assert solver.jacobian_updates >= 3
