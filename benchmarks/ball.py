@@ -21,11 +21,15 @@ Usage::
     python benchmarks/ball.py --mesh-sizes 8 --no-reuse   # the straightforward loop
     python benchmarks/ball.py --mesh-sizes 8 6 5 4 3 --t-end 20 --linear-solver auto --out DIR
 
-The last is the scaling mode (``--out``): the ball alone (its free steps before the
-impact, its contact steps after), each mesh size serially and under ``mpirun -n 2``
-in a process of its own, written to ``DIR/scaling.csv`` (one row per mesh size and
-number of ranks, a row as soon as it is measured) and ``DIR/scaling.png`` (time per
-step against DOFs, log-log).
+The last is the scaling mode (``--out``): the ball alone (its free steps, falling
+before the impact and vibrating in flight after it, and its contact steps), each mesh
+size serially and under ``mpirun -n 2`` in a process of its own, written to
+``DIR/scaling.csv`` (one row per mesh size and number of ranks, a row as soon as it is
+measured) and ``DIR/scaling.png`` (time per step against DOFs, log-log). With
+``--vs NAME --repeat N`` it runs instead N pairs of time loops, the linear solver and
+``NAME`` in turn, into ``DIR/versus.csv``, and prints the median ratio::
+
+    python benchmarks/ball.py --mesh-sizes 8 --t-end 40 --linear-solver auto --vs lu --out DIR
 
 The figures are medians measured in one run on a shared machine: compare ratios
 measured together rather than absolute times across runs.
@@ -120,27 +124,36 @@ def measure(
     }
 
 
-#: The columns of ``scaling.csv``.
+#: The columns of ``scaling.csv`` (SPEC section 8, then more): a free step has no contact
+#: force; the falling steps are the free steps before the first contact (a rigid fall,
+#: whose last acceleration is already the solution), the rebound steps those after it
+#: (the ball vibrating in flight).
 SCALING_COLUMNS = (
     "h",
     "ranks",
     "dofs",
     "steps",
     "newton_per_step",
-    "krylov_per_step",
     "median_free_step_s",
     "median_contact_step_s",
     "loop_s",
     "peak_memory_mb",
+    "krylov_per_step",
+    "newton_per_free_step",
+    "newton_per_contact_step",
+    "krylov_per_free_step",
+    "krylov_per_contact_step",
+    "median_falling_step_s",
+    "median_rebound_step_s",
+    "contact_steps",
     "mesh_s",
     "setup_s",
     "linear_solver",
 )
 
 
-def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: str) -> dict:
-    """The ball once, with the obstacle: its free steps (no contact force) and its contact
-    steps; Newton and Krylov iterations per step; the peak memory of the largest rank."""
+def scaling_simulation(mesh_size: float, t_end: float, linear_solver: str, scheme: str):
+    """The ball with the obstacle, and the seconds its mesh and its set-up took."""
     comm = MPI.COMM_WORLD
     start = time.perf_counter()
     problem = impact_problem(dim=3, mesh_size=mesh_size, comm=comm)
@@ -155,6 +168,16 @@ def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: 
         linear_solver="lu" if petsc else linear_solver,
     )
     setup_seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX) - mesh_seconds
+    return simulation, mesh_seconds, setup_seconds
+
+
+def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: str) -> dict:
+    """The ball once, with the obstacle: its free steps (no contact force) and its contact
+    steps; Newton and Krylov iterations per step; the peak memory of the largest rank."""
+    comm = MPI.COMM_WORLD
+    simulation, mesh_seconds, setup_seconds = scaling_simulation(
+        mesh_size, t_end, linear_solver, scheme
+    )
     krylov = []
 
     def count(simulation):
@@ -164,27 +187,54 @@ def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: 
     history = simulation.run(callback=count)
     loop = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
     steps = np.max(comm.allgather(np.asarray(history["step_seconds"][1:])), axis=0)
-    in_contact = np.asarray(history["contact_force"][1:]) > 0
+    newton = np.asarray(history["newton_iterations"][1:], dtype=float)
+    krylov = np.asarray(krylov, dtype=float)
+    contact = np.asarray(history["contact_force"][1:]) > 0
+    first = int(np.argmax(contact)) if contact.any() else len(contact)
+    index = np.arange(len(contact))
     memory = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.MAX)
 
     def median(selected):
         return float(np.median(steps[selected])) if selected.any() else float("nan")
+
+    def mean(values, selected):
+        return float(np.mean(values[selected])) if selected.any() else float("nan")
 
     return {
         "h": mesh_size,
         "ranks": comm.size,
         "dofs": simulation.dofs,
         "steps": len(steps),
-        "newton_per_step": float(np.mean(history["newton_iterations"][1:])),
-        "krylov_per_step": float(np.mean(krylov)),
-        "median_free_step_s": median(~in_contact),
-        "median_contact_step_s": median(in_contact),
+        "newton_per_step": float(np.mean(newton)),
+        "median_free_step_s": median(~contact),
+        "median_contact_step_s": median(contact),
         "loop_s": loop,
         "peak_memory_mb": memory / 1024.0,
+        "krylov_per_step": float(np.mean(krylov)),
+        "newton_per_free_step": mean(newton, ~contact),
+        "newton_per_contact_step": mean(newton, contact),
+        "krylov_per_free_step": mean(krylov, ~contact),
+        "krylov_per_contact_step": mean(krylov, contact),
+        "median_falling_step_s": median(~contact & (index < first)),
+        "median_rebound_step_s": median(~contact & (index > first)),
+        "contact_steps": int(contact.sum()),
         "mesh_s": mesh_seconds,
         "setup_s": setup_seconds,
         "linear_solver": simulation.solver_description,
     }
+
+
+def row_command(mesh_size: float, ranks: int, linear_solver: str, args) -> list[str]:
+    """The command that measures one row of the scaling mode in a process of its own."""
+    command = [sys.executable, os.path.abspath(__file__), "--scaling-row"]
+    command += ["--mesh-sizes", f"{mesh_size:g}", "--t-end", f"{args.t_end:g}"]
+    command += ["--linear-solver", linear_solver, "--scheme", args.scheme]
+    return ["mpirun", "-n", str(ranks), *command] if ranks > 1 else command
+
+
+def measure_row(mesh_size: float, ranks: int, linear_solver: str, args) -> dict:
+    result = run_command(row_command(mesh_size, ranks, linear_solver, args))
+    return json.loads([x for x in result.stdout.splitlines() if x[:1] == "{"][-1])
 
 
 def scaling(args) -> None:
@@ -197,13 +247,7 @@ def scaling(args) -> None:
         writer.writeheader()
         for mesh_size in args.mesh_sizes:
             for ranks in args.ranks:
-                command = [sys.executable, os.path.abspath(__file__), "--scaling-row"]
-                command += ["--mesh-sizes", f"{mesh_size:g}", "--t-end", f"{args.t_end:g}"]
-                command += ["--linear-solver", args.linear_solver, "--scheme", args.scheme]
-                if ranks > 1:
-                    command = ["mpirun", "-n", str(ranks), *command]
-                result = run_command(command)
-                row = json.loads([x for x in result.stdout.splitlines() if x[:1] == "{"][-1])
+                row = measure_row(mesh_size, ranks, args.linear_solver, args)
                 rows.append(row)
                 writer.writerow(row)
                 handle.flush()
@@ -211,28 +255,73 @@ def scaling(args) -> None:
     plot_scaling(rows, os.path.join(args.out, "scaling.png"))
 
 
+#: The columns of ``versus.csv``: time loops of two linear solvers, run in turn.
+VERSUS_COLUMNS = ("h", "ranks", "pair", "linear_solver", "versus", "loop_s", "versus_loop_s")
+
+
+def versus(args) -> None:
+    """The time loop of ``--linear-solver`` against that of ``--vs`` on the same ball, run
+    in turn (A B A B ...) so that the ratio of each pair sees the same machine."""
+    os.makedirs(args.out, exist_ok=True)
+    path = os.path.join(args.out, "versus.csv")
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=VERSUS_COLUMNS)
+        writer.writeheader()
+        for mesh_size in args.mesh_sizes:
+            for ranks in args.ranks:
+                ratios = []
+                for pair in range(args.repeat):
+                    a = measure_row(mesh_size, ranks, args.linear_solver, args)
+                    b = measure_row(mesh_size, ranks, args.vs, args)
+                    ratios.append(a["loop_s"] / b["loop_s"])
+                    writer.writerow(
+                        {
+                            "h": mesh_size,
+                            "ranks": ranks,
+                            "pair": pair,
+                            "linear_solver": a["linear_solver"],
+                            "versus": b["linear_solver"],
+                            "loop_s": a["loop_s"],
+                            "versus_loop_s": b["loop_s"],
+                        }
+                    )
+                    handle.flush()
+                print(
+                    f"h = {mesh_size:g}, {ranks} rank(s): time loop {args.linear_solver} / "
+                    f"{args.vs} = {np.median(ratios):.3f} (median of {len(ratios)} pairs, "
+                    f"{min(ratios):.3f} to {max(ratios):.3f})",
+                    flush=True,
+                )
+
+
 def plot_scaling(rows: list[dict], path: str) -> None:
-    """Time per step against DOFs, log-log: free and contact steps for each number of
-    ranks, and a line of slope 1 through the smallest serial free step."""
+    """Time per step against DOFs, log-log: contact steps and the free steps (falling
+    before the impact, vibrating in flight after it) for each number of ranks, and a line
+    of slope 1 through the smallest serial contact step."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    figure, axes = plt.subplots(figsize=(6.0, 4.2))
+    figure, axes = plt.subplots(figsize=(6.4, 4.4))
+    kinds = (
+        ("median_contact_step_s", "s", "C3", "contact"),
+        ("median_rebound_step_s", "^", "C0", "free, after the impact"),
+        ("median_falling_step_s", "o", "C2", "free, falling"),
+    )
     for ranks in sorted({row["ranks"] for row in rows}):
         mine = sorted((row for row in rows if row["ranks"] == ranks), key=lambda r: r["dofs"])
-        dofs = [row["dofs"] for row in mine]
-        for column, marker, what in (
-            ("median_free_step_s", "o", "free"),
-            ("median_contact_step_s", "s", "contact"),
-        ):
+        dofs = np.array([row["dofs"] for row in mine])
+        for column, marker, colour, what in kinds:
+            times = np.array([row.get(column, np.nan) for row in mine], dtype=float)
+            if np.isnan(times).all():
+                continue
             style = "-" if ranks == 1 else "--"
-            label = f"{what} step, {ranks} rank{'s' if ranks > 1 else ''}"
-            axes.loglog(dofs, [row[column] for row in mine], style, marker=marker, label=label)
-    first = min(rows, key=lambda row: (row["dofs"], row["ranks"]))
-    reach = np.array([first["dofs"], max(row["dofs"] for row in rows)])
-    slope = first["median_free_step_s"] * reach / reach[0]
+            label = f"{what}, {ranks} rank{'s' if ranks > 1 else ''}"
+            axes.loglog(dofs, times, style, marker=marker, color=colour, label=label)
+    serial = sorted((r for r in rows if r["ranks"] == 1), key=lambda r: r["dofs"]) or rows
+    reach = np.array([serial[0]["dofs"], max(row["dofs"] for row in rows)])
+    slope = serial[0]["median_contact_step_s"] * reach / reach[0]
     axes.loglog(reach, slope, ":", color="grey", label="DOFs$^1$")
     axes.set_xlabel("DOFs")
     axes.set_ylabel("median time per step (s)")
@@ -274,11 +363,17 @@ def main() -> None:
     parser.add_argument("--mesh-sizes", type=float, nargs="+", default=[8.0, 6.0, 4.5])
     parser.add_argument("--t-end", type=float, default=40.0)
     parser.add_argument("--scheme", default="hybrid")
-    parser.add_argument("--linear-solver", choices=[*LINEAR_SOLVERS, "lu-petsc"], default="lu")
+    parser.add_argument("--linear-solver", choices=[*LINEAR_SOLVERS, "lu-petsc"], default="auto")
     parser.add_argument("--out", help="scaling mode: write OUT/scaling.csv and OUT/scaling.png")
     parser.add_argument(
         "--ranks", type=int, nargs="+", default=[1, 2], help="scaling mode: numbers of ranks"
     )
+    parser.add_argument(
+        "--vs",
+        choices=[*LINEAR_SOLVERS, "lu-petsc"],
+        help="with --out: time loops against this linear solver, run in turn (versus.csv)",
+    )
+    parser.add_argument("--repeat", type=int, default=5, help="with --vs: pairs of runs")
     parser.add_argument("--scaling-row", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--all", action="store_true", help="serial and mpirun -n 2, one table")
     parser.add_argument(
@@ -293,6 +388,9 @@ def main() -> None:
         row = measure_scaling(args.mesh_sizes[0], args.t_end, args.linear_solver, args.scheme)
         if MPI.COMM_WORLD.rank == 0:
             print(json.dumps(row), flush=True)
+        return
+    if args.out is not None and args.vs is not None:
+        versus(args)
         return
     if args.out is not None:
         scaling(args)

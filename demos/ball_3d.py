@@ -138,7 +138,7 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
     parser.add_argument(
         "--linear-solver",
         choices=tuple(LINEAR_SOLVERS),
-        default="lu",
+        default="auto",
         help="; ".join(f"{name}: {what}" for name, what in LINEAR_SOLVERS.items()),
     )
     parser.add_argument(

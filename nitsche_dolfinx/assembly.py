@@ -4,19 +4,29 @@
 - :class:`AffineCellSplit`: the residual and Jacobian split into the cell integrals
   (affine in the unknown: linear elastodynamics, assembled once) and the facet
   integrals (the contact terms, re-assembled, and skipped while inactive);
-  docs/method.md section 8.
+- :class:`CellResidualAtZero`: the cell residual at a zero unknown as matrix-vector
+  products with the state of the time level;
+docs/method.md section 8.
 """
 
 from __future__ import annotations
 
+import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
+from ufl.algorithms import expand_derivatives
 
 from . import compat
 
-__all__ = ["AffineCellSplit", "Forms", "add_diagonal_product", "split_cell_integrals"]
+__all__ = [
+    "AffineCellSplit",
+    "CellResidualAtZero",
+    "Forms",
+    "add_diagonal_product",
+    "split_cell_integrals",
+]
 
 
 def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | None]:
@@ -44,9 +54,9 @@ class Forms:
         """Lifting of the Dirichlet values."""
         compat.apply_lifting(b, self.form, bcs, x0, alpha)
 
-    def create_matrix(self) -> PETSc.Mat:
-        """A matrix with the sparsity of the form."""
-        return fem_petsc.create_matrix(self.form)
+    def create_matrix(self, matrix_type: str | None = None) -> PETSc.Mat:
+        """A matrix with the sparsity of the form, of PETSc type ``matrix_type`` (AIJ)."""
+        return compat.create_matrix(self.form, matrix_type)
 
 
 def add_diagonal_product(b: PETSc.Vec, D: PETSc.Vec, x: PETSc.Vec) -> None:
@@ -57,17 +67,106 @@ def add_diagonal_product(b: PETSc.Vec, D: PETSc.Vec, x: PETSc.Vec) -> None:
     product.destroy()
 
 
+class CellResidualAtZero:
+    """F_cell(0), the cell terms of a residual at a zero unknown, without a cell assembly.
+
+    The cell terms are affine in the unknown and in the ``state`` functions (at a time
+    step: u^n, v^n, a^n), with coefficients that change only with :meth:`update`, so
+    ``F_cell(0) = F_cell(0)|_{state = 0} + sum_s (dF_cell / ds) s``: one matrix per state
+    function that appears in them, assembled by :meth:`update`, and the rest (the loads)
+    assembled again only when the values of its constants change (or at each call if it
+    holds Functions). On P2 cells of second order, a cell assembly costs about 25
+    matrix-vector products (docs/method.md section 8).
+    """
+
+    def __init__(self, F_cell: ufl.Form, unknown: fem.Function, state, matrix_type=None):
+        V = unknown.function_space
+        trial = ufl.TrialFunction(V)
+        zeros = {f: ufl.zero(*f.ufl_shape) for f in (unknown, *state)}
+        rest = ufl.replace(F_cell, zeros)
+        self._rest = None if rest.empty() else Forms(rest)
+        self._rest_vector = compat.create_vector(V)
+        # with constants only, the rest changes only with their values
+        self._constants = None if rest.empty() or rest.coefficients() else rest.constants()
+        self._rest_key = None
+        self._terms = []  # (Forms, matrix, state function)
+        for function in state:
+            derivative = expand_derivatives(ufl.derivative(F_cell, function, trial))
+            if not derivative.empty():
+                forms = Forms(derivative)
+                self._terms.append((forms, forms.create_matrix(matrix_type), function))
+        self.update()
+
+    @property
+    def functions(self) -> list[fem.Function]:
+        """The state functions that enter by matrix-vector products (the others are
+        absent from the cell terms)."""
+        return [function for _, _, function in self._terms]
+
+    def update(self) -> None:
+        """Assemble the matrices dF_cell / ds (again after a constant in them changed)."""
+        for forms, matrix, _ in self._terms:
+            matrix.zeroEntries()
+            forms.assemble_matrix(matrix)
+            matrix.assemble()
+
+    def assemble(self, b: PETSc.Vec) -> None:
+        """b = F_cell(0) at the current state (owned entries)."""
+        key = None
+        if self._constants is not None:
+            key = tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+        if key is None or key != self._rest_key:
+            rest = self._rest_vector
+            with rest.localForm() as local:
+                local.set(0.0)
+            if self._rest is not None:
+                self._rest.assemble_vector(rest)
+                rest.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            self._rest_key = key
+        self._rest_vector.copy(b)
+        for _, matrix, function in self._terms:
+            matrix.multAdd(compat.petsc_vector(function), b, b)
+
+    def petsc_objects(self) -> list:
+        return [self._rest_vector] + [matrix for _, matrix, _ in self._terms]
+
+
 class AffineCellSplit:
     """The cell terms of an affine-in-the-bulk problem, assembled once, and the facet terms.
 
     The residual is ``F(x) = K x + F_cell(0) + F_facet(x)`` and the Jacobian
     ``J = K_bc + J_facet(x)``, where ``K`` is the constant Jacobian of the cell terms
-    (``K_bc``: with the Dirichlet rows and columns replaced by the identity). ``K_bc``
-    and the facet Jacobian live on the sparsity of J (``J_forms``), so that summing
-    them is a copy and an addition of value arrays.
+    (``K_bc``: with the Dirichlet rows and columns replaced by the identity; ``K``
+    itself without Dirichlet conditions). ``K_bc`` lives on the sparsity of J
+    (``J_forms``), of PETSc type ``matrix_type``, and the facet Jacobian ``B`` on the
+    sparsity of the facet terms alone (the cells at Gamma_C): summing them is a copy of
+    K_bc and an addition over B's entries.
+
+    Args:
+        F, J: The residual and its Jacobian (UFL forms).
+        J_forms: J compiled (:class:`Forms`).
+        bcs: Dirichlet conditions.
+        D, D_bc: A diagonal matrix (vector) added to the problem, and the same with
+            zero Dirichlet rows (a lumped mass).
+        activity: The facet activity of :class:`~nitsche_dolfinx.solver.SNESSolver`.
+        unknown, state: With ``state`` (Functions in which the cell terms are affine),
+            F_cell(0) by :class:`CellResidualAtZero`; else by a cell assembly.
+        matrix_type: The PETSc type of K and K_bc (None: AIJ).
     """
 
-    def __init__(self, F: ufl.Form, J: ufl.Form, J_forms, bcs, D=None, D_bc=None, activity=None):
+    def __init__(
+        self,
+        F: ufl.Form,
+        J: ufl.Form,
+        J_forms,
+        bcs,
+        D=None,
+        D_bc=None,
+        activity=None,
+        unknown=None,
+        state=(),
+        matrix_type=None,
+    ):
         self.bcs = bcs
         F_cell, F_facet = split_cell_integrals(F)
         J_cell, J_facet = split_cell_integrals(J)
@@ -77,16 +176,21 @@ class AffineCellSplit:
         self.F_facet = Forms(F_facet) if F_facet is not None else None
         self.J_facet = Forms(J_facet) if J_facet is not None else None
         self._J_cell, self._D, self._D_bc = Forms(J_cell), D, D_bc
-        self.K = self._J_cell.create_matrix()
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
         # a new matrix, so J is assembled once to set them (and zeroed by update_K)
-        self.K_bc = J_forms.create_matrix()
+        self.K_bc = J_forms.create_matrix(matrix_type)
         J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
+        # without Dirichlet conditions K is K_bc: one matrix less
+        self.K = self._J_cell.create_matrix(matrix_type) if bcs else self.K_bc
+        self._at_zero = None
+        self._B_rows = None  # the local rows of B with entries
         self.update_K()
+        if state:
+            self._at_zero = CellResidualAtZero(F_cell, unknown, state, matrix_type)
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
-        self.B = self.K_bc.duplicate() if self.J_facet is not None else None  # zero values
+        self.B = self.J_facet.create_matrix() if self.J_facet is not None else None
         self.B_last = None
         self.activity = None
         if activity is not None and self.J_facet is not None:
@@ -98,16 +202,26 @@ class AffineCellSplit:
     def update_K(self) -> None:
         """Assemble K and K_bc for the current coefficients (the constant cell terms:
         again only when a constant in them changes, such as the time step)."""
-        for matrix, bcs, D in ((self.K, [], self._D), (self.K_bc, self.bcs, self._D_bc)):
+        pairs = [(self.K_bc, self.bcs, self._D_bc)]
+        if self.K is not self.K_bc:
+            pairs.append((self.K, [], self._D))
+        for matrix, bcs, D in pairs:
             matrix.zeroEntries()
             self._J_cell.assemble_matrix(matrix, bcs, 1.0)
             matrix.assemble()
             if D is not None:  # a diagonal (lumped) mass belongs to the constant cell terms
                 matrix.setDiagonal(D, addv=PETSc.InsertMode.ADD)
                 matrix.assemble()
+        if self._at_zero is not None:
+            self._at_zero.update()
+        self._summed_into, self._K_rows = None, None  # A = K_bc + B in full next time
 
     def update_cell_residual(self, u: fem.Function) -> None:
-        """F_cell(0) for the current coefficients (assembled with u = 0; u is restored)."""
+        """F_cell(0) for the current coefficients (with the state: by matrix-vector
+        products; else assembled with u = 0, u being restored)."""
+        if self._at_zero is not None:
+            self._at_zero.assemble(self.F0)
+            return
         saved = u.x.array.copy()
         u.x.array[:] = 0.0
         with self.F0.localForm() as local:
@@ -116,8 +230,11 @@ class AffineCellSplit:
         self.F0.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         u.x.array[:] = saved
 
-    def add_cell_residual(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
-        """b += K x + F_cell(0) on the owned entries."""
+    def add_cell_residual(self, x: PETSc.Vec | None, b: PETSc.Vec) -> None:
+        """b += K x + F_cell(0) on the owned entries (x None: x = 0)."""
+        if x is None:
+            b.axpy(1.0, self.F0)
+            return
         self.K.multAdd(x, self.F0, self._Kx)
         b.axpy(1.0, self._Kx)
 
@@ -159,12 +276,42 @@ class AffineCellSplit:
             self.B.copy(self.B_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         return True
 
-    def sum_into(self, A: PETSc.Mat) -> None:
-        """A = K_bc + B (all three on the sparsity of J)."""
-        same = PETSc.Mat.Structure.SAME_NONZERO_PATTERN
-        self.K_bc.copy(A, same)
-        if self.B is not None:
-            A.axpy(1.0, self.B, same)
+    def sum_into(self, A: PETSc.Mat, rows_only: bool = True) -> None:
+        """A = K_bc + B (A on the sparsity of K_bc, which holds B's): the first time after
+        :meth:`update_K` in full, then only on the rows of B's sparsity, which the facet
+        terms touch (the same sums, so the same values to the bit); always in full when
+        not ``rows_only`` (terms added to A afterwards on other rows)."""
+        if self.B is None:
+            self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        elif self._summed_into != A.handle or not rows_only:  # (petsc4py wraps A anew)
+            self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            self._summed_into = A.handle
+        else:
+            rows, indptr, columns, values = self._facet_rows_of_K()
+            A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
+            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
+            B_indptr, B_columns, B_values = self.B.getValuesCSR()
+            lengths = np.diff(B_indptr)[self._B_rows]
+            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+            A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
+            A.assemble()
+
+    def _facet_rows_of_K(self):
+        """The rows of K_bc where B has entries, in CSR form: (global rows, row pointers,
+        global columns, values); read once after each :meth:`update_K`."""
+        if self._K_rows is None:
+            first = self.B.getOwnershipRange()[0]
+            B_indptr = self.B.getValuesCSR()[0]
+            self._B_rows = np.flatnonzero(np.diff(B_indptr) > 0)
+            rows = (first + self._B_rows).astype(PETSc.IntType)
+            entries = [self.K_bc.getRow(row) for row in rows]
+            lengths = [len(columns) for columns, _ in entries]
+            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+            columns = np.concatenate([c for c, _ in entries] or [[]]).astype(PETSc.IntType)
+            values = np.concatenate([v for _, v in entries] or [[]])
+            self._K_rows = (rows, indptr, columns, values)
+        return self._K_rows
 
     def widen(self, pattern: PETSc.Mat) -> None:
         """Add the entries of ``pattern`` (zeros) to the sparsity of K_bc and B: terms of
@@ -172,10 +319,15 @@ class AffineCellSplit:
         for matrix in (self.K_bc, self.B, self.B_last):
             if isinstance(matrix, PETSc.Mat):
                 matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        self._summed_into, self._K_rows = None, None  # new sparsity: A in full next time
 
     def petsc_objects(self) -> list:
-        objects = [self.K, self.K_bc, self.F0, self._Kx]
+        objects = [self.K_bc, self.F0, self._Kx]
+        if self.K is not self.K_bc:
+            objects.append(self.K)
         objects += [m for m in (self.B, self.B_last) if isinstance(m, PETSc.Mat)]
+        if self._at_zero is not None:
+            objects += self._at_zero.petsc_objects()
         if self.activity is not None:
             objects.append(self._activity)
         return objects

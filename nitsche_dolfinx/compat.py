@@ -25,6 +25,7 @@ __all__ = [
     "cell_name",
     "cells_containing",
     "collapse",
+    "create_matrix",
     "create_vector",
     "expression",
     "dofmap_array",
@@ -250,6 +251,15 @@ def create_vector(V) -> PETSc.Vec:
     if hasattr(la, "create_petsc_vector"):  # <= 0.9
         return la.create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs)
     return fem_petsc.create_vector(V)  # >= 0.10: takes function spaces
+
+
+def create_matrix(a, matrix_type: str | None = None) -> PETSc.Mat:
+    """A PETSc matrix with the sparsity of the compiled bilinear form ``a``, of the PETSc
+    type ``matrix_type`` (None: dolfinx's default, AIJ). The keyword is ``mat_type`` up
+    to 0.9 and ``kind`` from 0.10, so the type is passed positionally."""
+    if matrix_type is None:
+        return fem_petsc.create_matrix(a)
+    return fem_petsc.create_matrix(a, matrix_type)
 
 
 def apply_lifting(b: PETSc.Vec, a, bcs, x0=None, alpha: float = 1.0) -> None:

@@ -109,6 +109,16 @@ def _diagonal_matrix(diagonal):
     return matrix
 
 
+def _assembled(form) -> PETSc.Mat:
+    """The matrix of a bilinear form, in blocks of the space's block size (BAIJ: for 3D
+    vectors, products about three times faster than AIJ)."""
+    compiled = fem.form(form)
+    matrix = compat.create_matrix(compiled, "baij")
+    fem_petsc.assemble_matrix(matrix, compiled)
+    matrix.assemble()
+    return matrix
+
+
 def _total(forms: list, zero):
     """The sum of a list of forms, or ``zero`` for an empty list."""
     return sum(forms[1:], forms[0]) if forms else zero
@@ -137,18 +147,22 @@ class Penetration:
         if model.contacts:
             P = compat.function_space(model.mesh, "Lagrange", model.degree)
             fdim = model.mesh.topology.dim - 1
+            cell_dofs = compat.dofmap_array(P)
             for contact, tag in zip(model.contacts, model.contact_tags):
                 field = fem.Function(P)
                 expression = compat.expression(contact.penetration(u), P)
                 dofs = fem.locate_dofs_topological(P, fdim, model.facets(tag))
-                self._fields.append((field, expression, dofs))
+                # interpolated only on the cells that hold these dofs (also those of a
+                # facet on another rank), not on the whole mesh
+                cells = np.flatnonzero(np.isin(cell_dofs, dofs).any(axis=1)).astype(np.int32)
+                self._fields.append((field, expression, dofs, cells))
 
     def max(self) -> float:
         """max over Gamma_C of u_n - g (> 0 means penetration); -inf without contact."""
         local = -np.inf
         _update_partners(self.model, self.u)
-        for field, expression, dofs in self._fields:
-            field.interpolate(expression)
+        for field, expression, dofs, cells in self._fields:
+            field.interpolate(expression, cells)
             if len(dofs):
                 local = max(local, float(field.x.array[dofs].max()))
         return self.comm.allreduce(local, op=MPI.MAX)
@@ -170,10 +184,10 @@ class MassMoments:
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         diagonal = model.mass_diagonal()
         if diagonal is None:
-            self.matrix = fem_petsc.assemble_matrix(fem.form(model.inertia(trial, test)))
+            self.matrix = _assembled(model.inertia(trial, test))
         else:  # lumped or redistributed mass: a diagonal matrix
             self.matrix = _diagonal_matrix(diagonal)
-        self.matrix.assemble()
+            self.matrix.assemble()
         self._work = self.matrix.createVecLeft()
         self.bs = model.V.dofmap.index_map_bs
         self.momentum_names = momentum_columns(self.bs)
@@ -225,8 +239,7 @@ class Diagnostics:
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         self.moments = MassMoments(model)
-        self._stiffness = fem_petsc.assemble_matrix(fem.form(model.bulk_stiffness(trial, test)))
-        self._stiffness.assemble()
+        self._stiffness = _assembled(model.bulk_stiffness(trial, test))
         self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         forms = {

@@ -11,19 +11,26 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+from dolfinx import fem
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from . import compat
 from .parameters import require_choice
 
 __all__ = [
+    "AUTO_CONTACT_STIFFNESS",
     "AUTO_COURANT",
     "AUTO_GAMG_DOFS",
     "LINEAR_SOLVERS",
+    "InexactSolves",
     "LinearSolver",
     "choose_linear_solver",
+    "contact_stiffness",
     "courant_number",
     "linear_solver",
+    "rigid_body_modes",
 ]
 
 #: The presets: name -> what it is.
@@ -43,12 +50,16 @@ LINEAR_SOLVERS = {
 #: ``"auto"`` takes cg-jacobi up to this Courant number c tau / h_min (measured on the
 #: ball, docs/method.md section 8: about 13 iterations per free step up to 1, 375 at 3).
 AUTO_COURANT = 1.0
+#: ... and up to this contact stiffness tau^2 / (rho gamma_h h) (:func:`contact_stiffness`;
+#: measured, docs/method.md section 8: on the disk cg-jacobi gives lu's history to 2e-11
+#: at 10, 2e-9 at 62 and 1e-7 at 625; two bars at 2.5e5 differ by 5e-4).
+AUTO_CONTACT_STIFFNESS = 100.0
 #: Beyond the Courant number above, ``"auto"`` takes cg-gamg from this many DOFs (lu below).
 AUTO_GAMG_DOFS = 200_000
 
-#: The Krylov tolerances: tight enough that Newton converges as with a direct solve (the
-#: histories agree with lu's to 1e-8 relative, tests/test_linear_solvers.py).
-_KRYLOV_TOLERANCES = {"ksp_rtol": 1e-12, "ksp_atol": 1e-14, "ksp_max_it": 1000}
+#: The Krylov options: the residual's norm unpreconditioned, as Newton's; the tolerances
+#: follow Newton's (:class:`~nitsche_dolfinx.solver.SNESSolver`, docs/method.md section 8).
+_KRYLOV_OPTIONS = {"ksp_norm_type": "unpreconditioned", "ksp_max_it": 1000}
 
 
 @dataclass(frozen=True)
@@ -68,7 +79,7 @@ def linear_solver(name: str, comm, problem=None, dt: float | None = None) -> Lin
     """The preset ``name`` (a key of :data:`LINEAR_SOLVERS`) on the communicator ``comm``.
 
     The direct presets only choose the factorisation package. The Krylov presets solve
-    to a relative tolerance of 1e-12, so that Newton converges as with LU. ``"auto"``
+    as inexactly as Newton allows (docs/method.md section 8). ``"auto"``
     needs the ``problem`` and the time step ``dt`` (see :func:`choose_linear_solver`).
     """
     require_choice(name, LINEAR_SOLVERS, "linear_solver", "linear solver")
@@ -90,11 +101,19 @@ def linear_solver(name: str, comm, problem=None, dt: float | None = None) -> Lin
         if name == "lu":
             return LinearSolver(name, options, description=f"lu ({package})")
         return LinearSolver(name, options, 10, description=f"lu-lagged ({package}, GMRES, lag 10)")
-    if name == "cg-jacobi":
-        options = {"ksp_type": "cg", "pc_type": "jacobi", **_KRYLOV_TOLERANCES}
+    if name == "cg-jacobi":  # 3 x 3 blocks: products about three times faster than AIJ
+        options = {"ksp_type": "cg", "pc_type": "jacobi", "mat_type": "baij", **_KRYLOV_OPTIONS}
         return LinearSolver(name, options, description="cg-jacobi (diagonal preconditioner)")
-    options = {"ksp_type": name.split("-")[0], "pc_type": "gamg", **_KRYLOV_TOLERANCES}
+    options = {"ksp_type": name.split("-")[0], "pc_type": "gamg", **_KRYLOV_OPTIONS}
+    if name == "gmres-gamg":  # right preconditioning: GMRES then minimises the true residual
+        options["ksp_pc_side"] = "right"
     return LinearSolver(name, options, 0, True, f"{name} (rigid-body near-nullspace)")
+
+
+def _smallest_cell(problem) -> float:
+    """h_min, the smallest h_T (largest vertex distance of a cell) over all ranks."""
+    local = problem.h.x.array
+    return problem.mesh.comm.allreduce(float(local.min()) if local.size else math.inf, MPI.MIN)
 
 
 def courant_number(problem, dt: float) -> float:
@@ -103,10 +122,22 @@ def courant_number(problem, dt: float) -> float:
     vertex distance; collective). Below about 1 the mass dominates the step's Jacobian."""
     material = problem.material
     speed = math.sqrt((material.lmbda + 2.0 * material.mu) / material.rho)
-    comm = problem.mesh.comm
-    local = problem.h.x.array
-    h_min = comm.allreduce(float(local.min()) if local.size else math.inf, op=MPI.MIN)
-    return speed * float(dt) / h_min
+    return speed * float(dt) / _smallest_cell(problem)
+
+
+def contact_stiffness(problem, dt: float) -> float:
+    """tau^2 / (rho gamma_h h) on the smallest cell: the contact terms of the step's
+    Jacobian, about (tau^2 / gamma_h) h^(d-1) on a contact node, against its mass
+    rho h^d (collective; 0 without contact). Large, the contact rows dominate the
+    Jacobian and the scale of the step's equation, and a Krylov solve to Newton's
+    tolerance no longer gives a direct solve's states."""
+    if not problem.contacts:
+        return 0.0
+    h_min = _smallest_cell(problem)
+    gamma_h = float(np.asarray(problem.gamma0.value)) * h_min
+    if problem.gamma0_scaling == "E":
+        gamma_h /= problem.material.E
+    return float(dt) ** 2 / (problem.material.rho * gamma_h * h_min)
 
 
 def choose_linear_solver(problem, dt: float) -> str:
@@ -114,13 +145,15 @@ def choose_linear_solver(problem, dt: float) -> str:
 
     cg-jacobi when the Jacobian is symmetric and positive definite with the mass
     dominating it: Nitsche or penalty with Theta = 1, no friction, every node with mass
-    (not the redistributed mass), and :func:`courant_number` at most
-    :data:`AUTO_COURANT`. Otherwise lu, or from :data:`AUTO_GAMG_DOFS` DOFs on
-    (except for the mixed method) cg-gamg, gmres-gamg for a non-symmetric Jacobian.
+    (not the redistributed mass), :func:`courant_number` at most :data:`AUTO_COURANT`
+    and :func:`contact_stiffness` at most :data:`AUTO_CONTACT_STIFFNESS`. Otherwise
+    lu, or from :data:`AUTO_GAMG_DOFS` DOFs on (except for the mixed method) cg-gamg,
+    gmres-gamg for a non-symmetric Jacobian.
     """
     massive = problem.mass != "redistributed"
     if problem.method != "mixed" and problem.symmetric_jacobian and massive:
-        if courant_number(problem, dt) <= AUTO_COURANT:
+        soft = contact_stiffness(problem, dt) <= AUTO_CONTACT_STIFFNESS
+        if soft and courant_number(problem, dt) <= AUTO_COURANT:
             return "cg-jacobi"
     if problem.method == "mixed":
         return "lu"  # a saddle point: no multigrid of ours for it
@@ -128,3 +161,88 @@ def choose_linear_solver(problem, dt: float) -> str:
     if index_map.size_global * problem.V.dofmap.index_map_bs < AUTO_GAMG_DOFS:
         return "lu"
     return "cg-gamg" if problem.symmetric_jacobian else "gmres-gamg"
+
+
+class InexactSolves:
+    """When the Krylov solve of a Newton iteration may stop (docs/method.md section 8).
+
+    The unpreconditioned residual r = F + J dx of a linear solve is the next Newton
+    residual wherever the contact status stays: a solve stops at :attr:`safety` times
+    the Newton solve's absolute tolerance (at 10^-12 of its right-hand side if that is
+    below round-off). The first solve of a Newton solve whose facet (contact) terms are
+    active stops at :attr:`forcing` times its right-hand side if the contact set moved
+    within the last Newton solve: its iterate then mostly moves the contact set, and the
+    next solve, from a residual that much smaller, ends the job. Where the set stays
+    (a step in free flight, or in steady contact) every solve is a full one, so Newton
+    takes the iterations it takes with a direct solve.
+
+    Args:
+        enabled: Whether the solves are Krylov solves with these tolerances (False: a
+            direct solve, or tolerances of the user's; every solve counts as full).
+    """
+
+    #: The relative tolerance of a full solve whose absolute one is below round-off.
+    floor = 1.0e-12
+
+    def __init__(self, enabled: bool):
+        self.enabled = bool(enabled)
+        self.safety = 0.1
+        self.forcing = 1.0e-3
+        self._full: list[bool] = []  # per linear solve of the Newton solve under way
+        #: Whether the contact set moved after the first iterate of the last Newton solve
+        #: (part of a checkpoint: a restart then solves as the uninterrupted run).
+        self.moved = False
+
+    def start(self) -> None:
+        """A Newton solve begins."""
+        self._full = []
+
+    def finish(self, jacobian_changes: list[bool]) -> None:
+        """A Newton solve ended; ``jacobian_changes[k]``: whether the Jacobian at iterate
+        k differed from the one before (the contact set moved)."""
+        self.moved = any(jacobian_changes[1:])
+
+    def set(self, ksp, first: bool, active: bool, atol: float) -> None:
+        """Set ``ksp``'s tolerances for the solve about to start: the first of its Newton
+        solve or not, with ``active`` facet terms, Newton's absolute tolerance ``atol``."""
+        loose = self.enabled and first and active and self.moved
+        self._full.append(not loose)
+        if self.enabled:
+            ksp.setTolerances(rtol=self.forcing if loose else self.floor, atol=self.safety * atol)
+
+    def full(self, index: int) -> bool:
+        """Whether linear solve ``index`` of the Newton solve under way was a full one."""
+        return 0 <= index < len(self._full) and self._full[index]
+
+
+def rigid_body_modes(V) -> list[PETSc.Vec]:
+    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
+
+    gdim translations and the rotations about the coordinate axes: one in 2D,
+    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
+    """
+    gdim = V.mesh.geometry.dim
+
+    def translation(i):
+        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
+
+    def zero(x):
+        return np.zeros(x.shape[1])
+
+    modes = [translation(i) for i in range(gdim)]
+    if gdim == 2:
+        modes.append(lambda x: np.stack((-x[1], x[0])))
+    else:
+        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
+        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
+        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
+    function = fem.Function(V)
+    vectors = []
+    for mode in modes:
+        function.interpolate(mode)
+        vector = compat.petsc_vector(function).copy()
+        for other in vectors:  # Gram-Schmidt
+            vector.axpy(-vector.dot(other), other)
+        vector.normalize()
+        vectors.append(vector)
+    return vectors

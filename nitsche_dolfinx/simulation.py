@@ -29,12 +29,13 @@ from .checkpoint import (
 )
 from .history import HISTORY_COLUMNS, History
 from .linear_solvers import linear_solver as linear_solver_preset
+from .linear_solvers import rigid_body_modes
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .parameters import OutputParameters, TimeStepping
 from .progress import Progress
 from .schemes import TimeScheme
-from .solver import SolverError, rigid_body_modes
+from .solver import SolverError
 from .stepper import NitscheStepper, Stepper
 
 __all__ = ["Simulation"]
@@ -70,8 +71,10 @@ class Simulation:
         linear_solver: A preset of :mod:`nitsche_dolfinx.linear_solvers` (``"auto"``,
             ``"lu"``, ``"lu-lagged"``, ``"cg-jacobi"``, ``"cg-gamg"``, ``"gmres-gamg"``);
             ``petsc_options`` win over its options, and it sets ``preconditioner_lag``.
-            ``"auto"`` chooses from the problem and ``dt`` (docs/method.md section 8).
-            None: the solver's defaults (lu).
+            ``"auto"`` (the default) chooses from the problem and ``dt`` (docs/method.md
+            section 8), unless ``petsc_options`` name a ``ksp_type`` or ``pc_type`` or
+            ``preconditioner_lag`` is given: the solver is then the user's. None: the
+            solver's defaults (lu).
         max_step_cuts: In :meth:`run`, a step whose Newton solve fails (with full steps,
             then with a line search) is replaced by two half steps, and those again,
             down to tau / 2^max_step_cuts; then the run stops with the last converged
@@ -107,11 +110,14 @@ class Simulation:
         reuse_jacobian: bool = True,
         preconditioner_lag: int = 0,
         guard_friction: bool = True,
-        linear_solver: str | None = None,
+        linear_solver: str | None = "auto",
         max_step_cuts: int = 5,
     ):
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         self.max_step_cuts = int(max_step_cuts)
+        chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
+        if linear_solver == "auto" and chosen:
+            linear_solver = None  # the user chose the linear solver: no preset
         preset = None
         if linear_solver is not None:
             preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)

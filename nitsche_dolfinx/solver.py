@@ -20,6 +20,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .assembly import AffineCellSplit, Forms, add_diagonal_product
+from .linear_solvers import InexactSolves, rigid_body_modes
 
 __all__ = [
     "DEFAULT_PETSC_OPTIONS",
@@ -115,44 +116,16 @@ def _solver_options(comm, user_options: dict, lag: int, symmetric: bool) -> dict
     return options
 
 
+def _read_at_each_solve(name: str) -> bool:
+    """Whether PETSc reads the option ``name`` again at each solve (viewers, monitors)."""
+    return any(word in name for word in ("view", "converged_reason", "monitor"))
+
+
 def _mumps_available(comm) -> bool:
     """compat.has_mumps, asked once per process."""
     if "found" not in _MUMPS:
         _MUMPS["found"] = compat.has_mumps(comm)
     return _MUMPS["found"]
-
-
-def rigid_body_modes(V) -> list[PETSc.Vec]:
-    """The rigid motions on the vector space ``V`` as orthonormal PETSc vectors.
-
-    gdim translations and the rotations about the coordinate axes: one in 2D,
-    three in 3D. Interpolation is exact for these linear fields, also on curved cells.
-    """
-    gdim = V.mesh.geometry.dim
-
-    def translation(i):
-        return lambda x: np.stack([np.full(x.shape[1], float(j == i)) for j in range(gdim)])
-
-    def zero(x):
-        return np.zeros(x.shape[1])
-
-    modes = [translation(i) for i in range(gdim)]
-    if gdim == 2:
-        modes.append(lambda x: np.stack((-x[1], x[0])))
-    else:
-        modes.append(lambda x: np.stack((-x[1], x[0], zero(x))))
-        modes.append(lambda x: np.stack((zero(x), -x[2], x[1])))
-        modes.append(lambda x: np.stack((x[2], zero(x), -x[0])))
-    function = fem.Function(V)
-    vectors = []
-    for mode in modes:
-        function.interpolate(mode)
-        vector = compat.petsc_vector(function).copy()
-        for other in vectors:  # Gram-Schmidt
-            vector.axpy(-vector.dot(other), other)
-        vector.normalize()
-        vectors.append(vector)
-    return vectors
 
 
 class SNESSolver:
@@ -190,11 +163,23 @@ class SNESSolver:
             ``update(x)`` before each residual, ``add_residual(b)``, and
             ``jacobian_changed()`` / ``add_jacobian(A)``, and ``growth``: the entries
             the sparsity of the Jacobian lacks (the pairs in contact for the first time).
+        cell_state: With ``affine_cell_terms``: the Functions other than ``u`` in which the
+            cell terms are affine and which change between solves (the state of the time
+            level); their constant part of the residual is then a matrix-vector product
+            per Function instead of a cell assembly per solve.
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
             Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
             positive definite), about a third cheaper than LU. Under MPI it stays LU:
             MUMPS's parallel LDL^T failed on the ball with PETSc 3.22.
+
+    The PETSc option ``mat_type`` (under the prefix) sets the type of the Jacobian and of
+    the constant matrices (``baij``: 3 x 3 blocks for 3D elasticity, about three times
+    faster products than AIJ); AIJ by default and with a ``coupling``.
+
+    With a Krylov method and no ``ksp_rtol``/``ksp_atol`` of the user's, the linear
+    solves are as inexact as Newton allows: :attr:`linear_tolerances`
+    (:class:`~nitsche_dolfinx.linear_solvers.InexactSolves`).
 
     Example:
         >>> solver = SNESSolver(F, u, bcs, petsc_options={"snes_monitor": None})
@@ -215,6 +200,7 @@ class SNESSolver:
         facet_activity: ufl.Form | None = None,
         symmetric: bool = False,
         coupling=None,
+        cell_state=(),
     ):
         self.u = u
         self.bcs = list(bcs)
@@ -237,16 +223,23 @@ class SNESSolver:
         self._zero_norm, self._given_atol = 0.0, None
         self._refresh_preconditioner = True  # factorise P at the next Jacobian (lagged)
         self._jacobian_changes: list[bool] = []
+        if coupling is not None and not affine_cell_terms:
+            raise ValueError("contact between bodies needs affine_cell_terms=True")
+        self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
+        user_options = dict(petsc_options or {})
+        comm = V.mesh.comm
+        options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
+        self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
+        matrix_type = None if coupling is not None else self._matrix_type(options)
+        terms = (F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
         self._split = (
-            AffineCellSplit(F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
+            AffineCellSplit(*terms, unknown=u, state=cell_state, matrix_type=matrix_type)
             if affine_cell_terms
             else None
         )
-        if coupling is not None and self._split is None:
-            raise ValueError("contact between bodies needs affine_cell_terms=True")
         self._coupling = coupling
         self._symmetric, self._near_nullspace = symmetric, None
-        self._A = self._new_matrix(symmetric)
+        self._A = self._new_matrix(symmetric, matrix_type)
         if mass_diagonal is not None:  # J may have no diagonal of its own (initial acceleration)
             self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._P = None
@@ -255,7 +248,8 @@ class SNESSolver:
         self.jacobian_evaluations = 0
         self.jacobian_updates = 0
         self.preconditioner_updates = 0
-        self.preconditioner_lag = int(preconditioner_lag) if affine_cell_terms else 0
+        #: How many times a failed Krylov solve made the solver factorise from then on.
+        self.direct_fallbacks = 0
         #: Skip the facet (contact) Jacobian while ``facet_activity`` is zero everywhere;
         #: False assembles it at every evaluation (the reference the skip is checked by).
         self.skip_inactive_facets = True
@@ -266,30 +260,33 @@ class SNESSolver:
         #: residual (semismooth Newton cycling between contact states; the line search
         #: of :meth:`solve_with_line_search` takes over).
         self.stall_limit = 12
+        self._create_snes(comm, options, user_options, symmetric, matrix_type)
 
-        user_options = dict(petsc_options or {})
-        comm = V.mesh.comm
-        options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
-        self._create_snes(comm, options, user_options, options_prefix, symmetric)
+    def _matrix_type(self, options: dict[str, Any]) -> str | None:
+        """The PETSc option ``mat_type``: the database's under our prefix, else ``options``'."""
+        name = f"{self.options_prefix}mat_type"
+        database = PETSc.Options()
+        return database.getString(name) if database.hasName(name) else options.get("mat_type")
 
-    def _create_snes(self, comm, options, user_options, options_prefix, symmetric) -> None:
+    def _create_snes(self, comm, options, user_options, symmetric, matrix_type) -> None:
         """The SNES with its residual and Jacobian callbacks and ``options``."""
         self.snes = PETSc.SNES().create(comm)
-        self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         self.snes.setOptionsPrefix(self.options_prefix)
         self.snes.setFunction(self._assemble_residual, self._b)
         if self.preconditioner_lag > 0:
-            self._P = self._new_matrix(symmetric)
+            self._P = self._new_matrix(symmetric, matrix_type)
             self.snes.setJacobian(self._assemble_jacobian, self._A, self._P)
         else:
             self.snes.setJacobian(self._assemble_jacobian, self._A)
         divergence = compat.set_divergence_tolerance(self.snes, 1.0e300)  # residuals may jump
         inserted = self._insert_options(options) + ([divergence] if divergence else [])
         # The database is global and bounded (512 entries in PETSc 3.18): take the
-        # defaults out once read; the user's options stay until destroy(), since some
-        # (monitors, converged-reason views) are read again at every solve.
+        # options out once read, except the user's viewers and monitors, which PETSc
+        # reads again at every solve (they stay until destroy()).
         self._user_option_names = [
-            name for name in inserted if name[len(self.options_prefix) :] in user_options
+            name
+            for name in inserted
+            if name[len(self.options_prefix) :] in user_options and _read_at_each_solve(name)
         ]
         #: An absolute tolerance the user set (``snes_atol``), obeyed as given; None: the
         #: tolerance follows the scale of each solve's equation (see :meth:`solve`).
@@ -298,6 +295,11 @@ class SNESSolver:
             self.user_atol = PETSc.Options().getReal(f"{self.options_prefix}snes_atol")
         name = f"{self.options_prefix}snes_linesearch_type"
         self._line_search_type = PETSc.Options().getString(name, "basic")
+        database = PETSc.Options()
+        tolerances = [f"{self.options_prefix}ksp_{name}" for name in ("rtol", "atol")]
+        defaults = {f"{self.options_prefix}{key}" for key in options if key not in user_options}
+        given = any(database.hasName(n) and n not in defaults for n in tolerances)
+        given = given or self.preconditioner_lag > 0  # lagged GMRES: its own tolerances
         try:
             self.snes.setFromOptions()
             self.snes.getKSP().setFromOptions()
@@ -305,22 +307,25 @@ class SNESSolver:
             for name in inserted:
                 if name not in self._user_option_names:
                     PETSc.Options().delValue(name)
+        #: When the linear solves stop: Krylov solves whose tolerances follow Newton's.
+        krylov = self.snes.getKSP().getType() != "preonly"
+        self.linear_tolerances = InexactSolves(krylov and not given)
         self.snes.setConvergenceTest(self._converged)
 
-    def _new_matrix(self, symmetric: bool) -> PETSc.Mat:
+    def _new_matrix(self, symmetric: bool, matrix_type: str | None) -> PETSc.Mat:
         """A matrix with the sparsity of J: with the split, a copy of the structure of
         its K_bc (already assembled on that sparsity), else dolfinx's for the form."""
         if self._split is not None:
             matrix = self._split.K_bc.duplicate()  # zero values
         else:
-            matrix = self.J_forms.create_matrix()
+            matrix = self.J_forms.create_matrix(matrix_type)
         if symmetric:
             matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         return matrix
 
     def set_near_nullspace(self, vectors: list[PETSc.Vec]) -> None:
         """Give algebraic multigrid (``pc_type gamg``) the near-nullspace of the Jacobian,
-        e.g. :func:`rigid_body_modes`."""
+        e.g. :func:`~nitsche_dolfinx.linear_solvers.rigid_body_modes`."""
         nullspace = PETSc.NullSpace().create(vectors=vectors, comm=self.u.function_space.mesh.comm)
         self._near_nullspace = nullspace
         self._A.setNearNullSpace(nullspace)
@@ -339,7 +344,8 @@ class SNESSolver:
             inserted.append(name)
         return inserted
 
-    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec) -> None:
+    def _assemble_residual(self, snes, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False) -> None:
+        """b = F(x) (``zero``: x is the zero vector, whose product with K is skipped)."""
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if self._coupling is not None:
             self._coupling.update(x)
@@ -351,10 +357,11 @@ class SNESSolver:
             self.F_forms.assemble_vector(b)
         elif self._split.F_facet is not None:
             self._split.F_facet.assemble_vector(b)
-        self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
+        if self.bcs:  # (without conditions, lifting would still pack J's coefficients)
+            self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         if self._split is not None:
-            self._split.add_cell_residual(x, b)
+            self._split.add_cell_residual(None if zero else x, b)
         elif self._D is not None:
             add_diagonal_product(b, self._D, x)
         if self._coupling is not None:
@@ -415,9 +422,12 @@ class SNESSolver:
         round-off): it came from a full Newton step with the Jacobian that it has itself.
         The bulk is affine and the contact terms piecewise affine, so with the same
         Jacobian (the same contact status at every quadrature point) at both ends of a
-        full step, that step landed on the solution."""
-        changes = self._jacobian_changes
-        return iteration - 1 < len(changes) and not changes[iteration - 1] and self._full_steps
+        full step, that step landed on the solution, if its linear solve was exact: a
+        direct one, or a full Krylov solve (see
+        :class:`~nitsche_dolfinx.linear_solvers.InexactSolves`)."""
+        changes, k = self._jacobian_changes, iteration - 1
+        full = self.linear_tolerances.full(k - 1)
+        return k < len(changes) and not changes[k] and self._full_steps and full
 
     def _set_tolerances(self, scale: float, rtol: float) -> None:
         """The absolute tolerance and the round-off bound of the solve under way, from
@@ -429,6 +439,13 @@ class SNESSolver:
     def _assemble_jacobian(self, snes, x: PETSc.Vec, A: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobian_evaluations += 1
         self._jacobian_changes.append(True)
+        self._update_jacobian(snes, A, P)
+        active = self._split is not None and not self._split.inactive
+        first = len(self._jacobian_changes) == 1
+        self.linear_tolerances.set(snes.getKSP(), first, active, self._atol)
+
+    def _update_jacobian(self, snes, A: PETSc.Mat, P: PETSc.Mat) -> None:
+        """Assemble the Jacobian into A (and P) where it changed; see :meth:`_assemble_jacobian`."""
         if self._split is None:  # the whole Jacobian
             A.zeroEntries()
             self.J_forms.assemble_matrix(A, self.bcs)
@@ -439,7 +456,8 @@ class SNESSolver:
         elif self._jacobian_terms_changed():  # always at the first evaluation
             # every Jacobian is K_bc + B, summed in that order: a run restarted from a
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
-            self._split.sum_into(A)
+            # (the coupling's terms are added on rows beyond B's: A in full then)
+            self._split.sum_into(A, rows_only=self._coupling is None)
             if self._coupling is not None:
                 self._coupling.add_jacobian(A)
         else:
@@ -489,21 +507,43 @@ class SNESSolver:
         self._full_steps = self._line_search_type == "basic"
         start = self.u.x.array.copy()
         reason, iterations = self._run_snes(u_vec)
-        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE and self._P is not None:
-            # GMRES on a lagged factorisation gave up: again, factorising the Jacobian
+        failed = reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE
+        if failed and (self._P is not None or self.linear_tolerances.enabled):
+            # GMRES on a lagged factorisation, or the Krylov method of a preset, gave up:
+            # again, factorising the Jacobian
             self.u.x.array[:] = start
-            self._factorise_at_next_jacobian()
+            if self._P is not None:
+                self._factorise_at_next_jacobian()
+            else:
+                self._direct_solves_from_now_on()
             reason, more = self._run_snes(u_vec)
             iterations += more
         if reason <= 0:
             raise SolverError(reason, iterations, self.snes.getFunctionNorm())
         return iterations
 
+    def _direct_solves_from_now_on(self) -> None:
+        """Factorise the Jacobian (LU, MUMPS's where PETSc has it) instead of the Krylov
+        method whose solve failed: with conjugate gradients, a Jacobian that is not
+        positive definite (gamma0 beyond the stability limit of the mesh)."""
+        ksp = self.snes.getKSP()
+        ksp.reset()
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        if _mumps_available(self.u.function_space.mesh.comm):
+            ksp.getPC().setFactorSolverType("mumps")
+        self.linear_tolerances.enabled = False
+        self.direct_fallbacks += 1
+        if self._split is not None:
+            self._factorise_at_next_jacobian()
+
     def _run_snes(self, u_vec) -> tuple[int, int]:
         """SNES from ``u``, whose value becomes the last iterate; its reason and iterations."""
         self._jacobian_changes = []
+        self.linear_tolerances.start()
         u_vec.copy(self._x)
         self.snes.solve(None, self._x)
+        self.linear_tolerances.finish(self._jacobian_changes)
         self._x.copy(u_vec)
         self.u.x.scatter_forward()
         return self.snes.getConvergedReason(), self.snes.getIterationNumber()
@@ -543,7 +583,8 @@ class SNESSolver:
         """Solve with the SNES line search ``kind`` (e.g. ``"l2"``) inside the block."""
         database = PETSc.Options()
         name = f"{self.options_prefix}snes_linesearch_type"
-        previous = database.getString(name) if database.hasName(name) else None
+        kept = database.hasName(name)  # set in the database by the user
+        previous = database.getString(name) if kept else self._line_search_type
         database[name] = kind
         self.snes.setFromOptions()
         before, self._line_search_type = self._line_search_type, kind
@@ -551,9 +592,9 @@ class SNESSolver:
             yield
         finally:
             self._line_search_type = before
-            database[name] = previous or DEFAULT_PETSC_OPTIONS["snes_linesearch_type"]
+            database[name] = previous
             self.snes.setFromOptions()
-            if previous is None:
+            if not kept:
                 database.delValue(name)
 
     def equation_scale(self, new_coefficients: bool = True) -> float:
@@ -566,7 +607,7 @@ class SNESSolver:
         u_vec = compat.petsc_vector(self.u)
         u_vec.copy(self._x)
         self._zero.set(0.0)
-        self._assemble_residual(self.snes, self._zero, self._b)
+        self._assemble_residual(self.snes, self._zero, self._b, zero=True)
         self._x.copy(u_vec)
         self.u.x.scatter_forward()
         return self._b.norm()

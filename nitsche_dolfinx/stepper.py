@@ -319,6 +319,7 @@ class NitscheStepper(TimeLevels):
             facet_activity=activity,
             symmetric=problem.symmetric_jacobian,
             coupling=self._pair_coupling(F, state, test, bcs),
+            cell_state=(self.u, self.v, self.a) if reuse_jacobian else (),
         )
 
     def _pair_coupling(self, F, state, test, bcs):
@@ -499,8 +500,13 @@ class NitscheStepper(TimeLevels):
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
 
+    def levels(self) -> dict[str, Any]:
+        """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
+        return {**super().levels(), "contact_set_moved": self.solver.linear_tolerances.moved}
+
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
+        self.solver.linear_tolerances.moved = bool(saved.get("contact_set_moved", False))
         self._diagnostics_cache = None  # the loaded state's are computed anew
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0

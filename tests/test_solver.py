@@ -70,3 +70,72 @@ def test_petsc_options_prefix_overrides_defaults():
     assert solver.snes.getTolerances()[3] == 7
     assert solver.snes.getKSP().getPC().getType() == "lu"
     solver.destroy()
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("scheme", ["hybrid", "theta", "newmark"])
+def test_cell_residual_at_zero_by_products_equals_its_assembly(scheme):
+    """F_cell(0) as products of dF_cell/ds with the state s = (u, v, a) is the cell
+    residual assembled at w = 0, for random states, with a time step and a load that
+    changes in time (the loads are assembled again only when their constants change)."""
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+
+    from nitsche_dolfinx import make_scheme
+    from nitsche_dolfinx.assembly import CellResidualAtZero, split_cell_integrals
+    from nitsche_dolfinx.cases import impact_problem
+
+    problem = impact_problem(dim=2, mesh_size=8.0, comm=MPI.COMM_WORLD)
+    problem.add_body_force(lambda t: [t, 0.0])
+    V = problem.V
+    w, u, v, a = (fem.Function(V) for _ in range(4))
+    dt = fem.Constant(problem.mesh, 0.1)
+    F = make_scheme(scheme).residual(problem, w, u, v, a, dt, ufl.TestFunction(V))
+    F_cell, _ = split_cell_integrals(F)
+    at_zero = CellResidualAtZero(F_cell, w, (u, v, a), "baij")
+    assert u in at_zero.functions and v in at_zero.functions  # not in the assembled rest
+    rng = np.random.default_rng(MPI.COMM_WORLD.rank)
+    products, assembled = compat.create_vector(V), compat.create_vector(V)
+    for t in (0.0, 0.0, 1.0):
+        problem.set_time(t)
+        for function in (u, v, a):
+            function.x.array[:] = rng.standard_normal(function.x.array.size)
+            function.x.scatter_forward()
+        at_zero.assemble(products)
+        with assembled.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(assembled, fem.form(F_cell))  # w = 0
+        assembled.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        difference = products.copy()
+        difference.axpy(-1.0, assembled)
+        assert difference.norm() <= 1e-13 * assembled.norm()
+        assert assembled.norm() > 0.0
+
+
+@pytest.mark.mpi
+def test_jacobian_summed_by_rows_is_the_assembled_jacobian():
+    """In contact the Jacobian K_bc + B is summed again on B's rows only: at iterates whose
+    contact sets differ, it equals the Jacobian form assembled at that iterate."""
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+
+    from nitsche_dolfinx import HybridScheme, Simulation
+    from nitsche_dolfinx.cases import impact_problem
+
+    problem = impact_problem(dim=2, mesh_size=8.0, comm=MPI.COMM_WORLD)
+    simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=12.0, linear_solver="cg-jacobi")
+    for _ in range(105):  # in contact from t = 10
+        simulation.step()
+    solver = simulation.solver
+    w = compat.petsc_vector(solver.u)
+    A = solver.snes.getJacobian()[0]
+    for scale in (1.0, 1.5, 0.5, 1.0):
+        x = w.copy()
+        x.scale(scale)  # other contact sets: B's rows change
+        solver.snes.computeJacobian(x, A)
+        direct = fem_petsc.assemble_matrix(solver.J_forms.form)
+        direct.assemble()
+        difference = A.convert("aij", PETSc.Mat())
+        difference.axpy(-1.0, direct, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        assert difference.norm() <= 1e-14 * direct.norm()
+    assert solver.jacobian_updates >= 3
