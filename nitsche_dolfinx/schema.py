@@ -257,8 +257,8 @@ SCHEMA: dict[str, Table] = {
     "solver": Table(
         "the Newton solver of a step (PETSc options: [petsc])",
         {
-            "linear_solver": Key("string", None, "linear solver preset", tuple(LINEAR_SOLVERS),
-                                 shown_default="lu"),
+            "linear_solver": Key("string", "auto", "linear solver preset (auto: chosen from "
+                                 "the problem)", tuple(LINEAR_SOLVERS)),
             "reuse_jacobian": Key("boolean", True, "assemble the bulk Jacobian once"),
             "preconditioner_lag": Key("integer", 0, "keep a factorisation as GMRES "
                                       "preconditioner up to this many iterations (0: never)"),

@@ -370,17 +370,28 @@ def test_sweep_over_E_compiles_once(tmp_path, compilations):
 # -- the README's example ------------------------------------------------------------------
 
 
-def test_readme_configuration_runs(tmp_path):
+@pytest.mark.parametrize("linear_solver", ["auto", "lu"])
+def test_readme_configuration_runs(tmp_path, linear_solver):
     """The README's TOML block with a symmetry plane, selectors and point probes: the
     block starts 0.01 above the ground at speed 1 (u_y = 0.01 at the corner and on the
     top, centre of mass 0.51 up, momentum -rho |Omega| = -2), bounces, and once released
-    keeps its momentum along y and moves its centre of mass by it (no load)."""
+    keeps its momentum along y and moves its centre of mass by it (no load).
+
+    With direct solves (lu) the momentum is kept to round-off, a property of the scheme;
+    with the default ("auto": conjugate gradients here, each solve stopped at a tenth of
+    Newton's tolerance, docs/method.md section 8) to the 1e-8 relative within which the
+    default's histories follow those of direct solves."""
     import re
 
     text = open(os.path.join(os.path.dirname(os.path.dirname(__file__)), "README.md")).read()
     example = re.search(r"<!-- readme-toml -->\s*```toml\n(.*?)```", text, flags=re.S)
     assert example, "README.md lost its marked TOML example"
-    config, simulation = configured(tmp_path, example.group(1))
+    assert "linear_solver" not in example.group(1)  # the example runs the default
+    given = example.group(1) + (f'\n[solver]\nlinear_solver = "{linear_solver}"\n')
+    config, simulation = configured(tmp_path, given)
+    assert simulation.solver_description.startswith(
+        "auto: cg-jacobi" if linear_solver == "auto" else "lu"
+    ), simulation.solver_description
     history = simulation.run(columns=history_columns(config, simulation))
     first = history[0]
     for name, value in [("u_y_corner", 0.01), ("u_y_top", 0.01), ("centre_of_mass_y", 0.51),
@@ -390,6 +401,9 @@ def test_readme_configuration_runs(tmp_path):
     assert len(touching) > 0 and touching[-1] < len(history) - 5  # released
     free = slice(touching[-1] + 1, None)
     momentum = history["momentum_y"][free]
-    assert momentum.min() > 1.0 and np.ptp(momentum) <= 1e-13 * momentum.max()
+    tolerance = 1e-13 if linear_solver == "lu" else 1e-8
+    assert momentum.min() > 1.0 and np.ptp(momentum) <= tolerance * momentum.max()
     rise = np.diff(history["centre_of_mass_y"][free]) / np.diff(history["t"][free])
-    np.testing.assert_allclose(rise, momentum[0] / 2.0, rtol=1e-12)
+    np.testing.assert_allclose(
+        rise, momentum[0] / 2.0, rtol=1e-12 if linear_solver == "lu" else 1e-8
+    )
