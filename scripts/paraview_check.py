@@ -13,7 +13,7 @@ import math
 import sys
 
 from paraview import servermanager
-from paraview.simple import UpdatePipeline, Xdmf3ReaderT
+from paraview.simple import Xdmf3ReaderT
 
 
 def leaves(data):
@@ -33,12 +33,10 @@ def leaves(data):
 def main(path: str) -> int:
     reader = Xdmf3ReaderT(FileName=[path])
     times = list(reader.TimestepValues) if reader.TimestepValues else [0.0]
-    names = list(reader.PointData.keys())
-    print(f"{path}: {len(times)} time levels from {times[0]:g} to {times[-1]:g}, fields {names}")
-    UpdatePipeline(time=times[0], proxy=reader)  # the first update returns every level at once
+    print(f"{path}: {len(times)} time levels from {times[0]:g} to {times[-1]:g}")
     read, bad = set(), 0
     for t in times:
-        UpdatePipeline(time=t, proxy=reader)
+        reader.UpdatePipeline(t)
         for block in leaves(servermanager.Fetch(reader)):
             point_data = block.GetPointData()
             for k in range(point_data.GetNumberOfArrays()):
@@ -54,11 +52,15 @@ def main(path: str) -> int:
                         f"{[round(b, 2) for b in block.GetBounds()]}, magnitude {low:.4g} to "
                         f"{high:.4g}"
                     )
+    names = sorted({name for _, name in read})  # every field seen at any level
+    print(f"fields: {', '.join(names)}")
     missing = [(t, name) for t in times for name in names if (t, name) not in read]
     print(
         f"read {len(read)} (level, field) pairs of {len(times) * len(names)}: "
         f"{len(missing)} missing, {bad} not finite"
     )
+    for t, name in missing:
+        print(f"  missing: {name} at t = {t:g}")
     return 1 if missing or bad else 0
 
 
