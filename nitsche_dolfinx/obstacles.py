@@ -127,7 +127,30 @@ def _check_dimension(array: np.ndarray, x, what: str) -> None:
         )
 
 
-class SphereObstacle(Obstacle):
+class _RadialObstacle(Obstacle):
+    """An obstacle at ``radius`` from a centre (sphere) or an axis (cylinder): d and n
+    from the radial vector r that :meth:`_radial` gives with the radius, d = |r| - R
+    outside (-d inside) and n = -r / |r| outside (r / |r| inside)."""
+
+    side: str
+
+    def _radial(self, x):
+        raise NotImplementedError
+
+    def distance(self, x):
+        r, radius = self._radial(x)
+        d = ufl.sqrt(ufl.dot(r, r)) - radius
+        return d if self.side == "outside" else -d
+
+    def normal(self, x):
+        # -grad d / |grad d| written out: the radius, a constant that the gradient drops,
+        # would be left out of the compiled expression's constants (FFCx 0.5)
+        r, _ = self._radial(x)
+        unit = r / ufl.sqrt(ufl.dot(r, r))
+        return -unit if self.side == "outside" else unit
+
+
+class SphereObstacle(_RadialObstacle):
     """A rigid sphere (a circle in 2D) of ``radius`` around ``center``.
 
     Args:
@@ -149,18 +172,6 @@ class SphereObstacle(Obstacle):
         center, radius = _constants(self, x, self.center, self.radius)
         return x - center, radius
 
-    def distance(self, x):
-        r, radius = self._radial(x)
-        d = ufl.sqrt(ufl.dot(r, r)) - radius
-        return d if self.side == "outside" else -d
-
-    def normal(self, x):
-        # -grad d / |grad d| written out: the radius, a constant that the gradient drops,
-        # would be left out of the compiled expression's constants (FFCx 0.5)
-        r, _ = self._radial(x)
-        unit = r / ufl.sqrt(ufl.dot(r, r))
-        return -unit if self.side == "outside" else unit
-
     def __repr__(self):
         return (
             f"SphereObstacle(center={self.center.tolist()}, radius={self.radius!r}, "
@@ -168,7 +179,7 @@ class SphereObstacle(Obstacle):
         )
 
 
-class CylinderObstacle(Obstacle):
+class CylinderObstacle(_RadialObstacle):
     """A rigid circular cylinder in 3D: the points at ``radius`` from the axis through
     ``point`` along ``axis``.
 
@@ -200,16 +211,6 @@ class CylinderObstacle(Obstacle):
         point, radius, axis = _constants(self, x, self.point, self.radius, self.axis)
         r = x - point
         return r - ufl.dot(r, axis) * axis, radius
-
-    def distance(self, x):
-        radial, radius = self._radial(x)
-        d = ufl.sqrt(ufl.dot(radial, radial)) - radius
-        return d if self.side == "outside" else -d
-
-    def normal(self, x):
-        radial, _ = self._radial(x)  # as the sphere's: -grad d / |grad d| written out
-        unit = radial / ufl.sqrt(ufl.dot(radial, radial))
-        return -unit if self.side == "outside" else unit
 
     def __repr__(self):
         return (
