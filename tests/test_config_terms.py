@@ -288,22 +288,6 @@ def test_block_on_a_roller_configured_moves_rigidly(tmp_path, scheme, roller):
 # -- a sweep over E compiles once --------------------------------------------------------
 
 
-@pytest.fixture
-def compilations(monkeypatch):
-    """One entry per form or expression that FFCx compiles (not found in its cache)."""
-    import ffcx.codegeneration.jit as jit
-
-    calls = []
-    compile_objects = jit._compile_objects
-
-    def counted(*args, **kwargs):
-        calls.append(args[2] if len(args) > 2 else kwargs.get("object_names"))
-        return compile_objects(*args, **kwargs)
-
-    monkeypatch.setattr(jit, "_compile_objects", counted)
-    return calls
-
-
 #: A block stretched by u0 = (1e-3 x, 0) falling at speed 1 above the ground, two steps
 #: with its fields written: every form of a run.
 STRETCHED = """

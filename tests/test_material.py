@@ -86,23 +86,6 @@ def test_exact_bar_solution():
 # -- the material as runtime constants: a sweep compiles its forms once ------------------
 
 
-@pytest.fixture
-def compilations(monkeypatch):
-    """A list that gets one entry per form or expression FFCx compiles (not those it finds
-    in its cache): ``_compile_objects`` is where every supported FFCx compiles."""
-    import ffcx.codegeneration.jit as jit
-
-    calls = []
-    compile_objects = jit._compile_objects
-
-    def counted(*args, **kwargs):
-        calls.append(args[2] if len(args) > 2 else kwargs.get("object_names"))
-        return compile_objects(*args, **kwargs)
-
-    monkeypatch.setattr(jit, "_compile_objects", counted)
-    return calls
-
-
 STRETCH = 1e-3
 
 
