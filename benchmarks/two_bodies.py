@@ -12,11 +12,11 @@ Two runs, made one after the other in the same process, on the same cores:
   gamma0), on a mesh with about as many DOFs as the pair (its mesh size found among a
   few near h / 2^(1/dim), or ``--plane-mesh-size``).
 
-P2, the hybrid scheme with Theta = 1, tau = 0.1, the solver's default linear solver (LU)
-unless ``--linear-solver``. For each run: the DOFs, the median wall time of the free steps
-(no contact force) and of the contact steps, the Newton iterations and factorisations per
-contact step, and the split of the time loop between assembly (SNES residuals and
-Jacobians), factorisation (PCSetUp) and triangular solves (KSPSolve).
+P2, the hybrid scheme with Theta = 1, tau = 0.1, the package's default linear solver
+(``auto``) unless ``--linear-solver``. For each run: the DOFs, the median wall time of the
+free steps (no contact force) and of the contact steps, the Newton iterations and
+factorisations per contact step, and the split of the time loop between assembly (SNES
+residuals and Jacobians), factorisation (PCSetUp) and triangular solves (KSPSolve).
 
 Each repeat runs both bodies serially and then under ``mpirun -n 2`` (``--ranks``), each
 in a process of its own, so that the load of a shared machine falls on all of them alike;
@@ -244,7 +244,7 @@ def main() -> None:
     parser.add_argument("--t-end", type=float, default=8.0)
     parser.add_argument("--variant", choices=("unbiased", "biased"), default="unbiased")
     parser.add_argument("--pairing", choices=("axis", "closest"), default="axis")
-    parser.add_argument("--linear-solver", choices=list(LINEAR_SOLVERS), default=None)
+    parser.add_argument("--linear-solver", choices=list(LINEAR_SOLVERS), default="auto")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--out", default=os.path.join("out", "two_bodies"))

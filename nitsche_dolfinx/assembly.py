@@ -276,19 +276,21 @@ class AffineCellSplit:
             self.B.copy(self.B_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         return True
 
-    def sum_into(self, A: PETSc.Mat, rows_only: bool = True) -> None:
+    def sum_into(self, A: PETSc.Mat, extra_rows: np.ndarray | None = None) -> None:
         """A = K_bc + B (A on the sparsity of K_bc, which holds B's): the first time after
-        :meth:`update_K` in full, then only on the rows of B's sparsity, which the facet
-        terms touch (the same sums, so the same values to the bit); always in full when
-        not ``rows_only`` (terms added to A afterwards on other rows)."""
+        :meth:`update_K` or :meth:`widen` in full, then only on the rows that the facet
+        terms touch (B's rows with entries) and the ``extra_rows`` (local rows where terms
+        are added to A after this sum: the coupling between two bodies), which are set
+        back to K_bc's values first. The same sums, in the same order, so the same values
+        to the bit as a sum in full."""
         if self.B is None:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        elif self._summed_into != A.handle or not rows_only:  # (petsc4py wraps A anew)
+        elif self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             self._summed_into = A.handle
         else:
-            rows, indptr, columns, values = self._facet_rows_of_K()
+            rows, indptr, columns, values = self._rows_of_K(extra_rows)
             A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
             A.assemble(PETSc.Mat.AssemblyType.FLUSH)
             B_indptr, B_columns, B_values = self.B.getValuesCSR()
@@ -297,13 +299,16 @@ class AffineCellSplit:
             A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
             A.assemble()
 
-    def _facet_rows_of_K(self):
-        """The rows of K_bc where B has entries, in CSR form: (global rows, row pointers,
-        global columns, values); read once after each :meth:`update_K`."""
+    def _rows_of_K(self, extra_rows: np.ndarray | None):
+        """The rows of K_bc where B has entries, and the ``extra_rows``, in CSR form:
+        (global rows, row pointers, global columns, values); read once after each
+        :meth:`update_K` or :meth:`widen` (the extra rows change only with a widening)."""
         if self._K_rows is None:
             first = self.B.getOwnershipRange()[0]
             B_indptr = self.B.getValuesCSR()[0]
             self._B_rows = np.flatnonzero(np.diff(B_indptr) > 0)
+            if extra_rows is not None and len(extra_rows):
+                self._B_rows = np.union1d(self._B_rows, extra_rows)
             rows = (first + self._B_rows).astype(PETSc.IntType)
             entries = [self.K_bc.getRow(row) for row in rows]
             lengths = [len(columns) for columns, _ in entries]

@@ -187,6 +187,12 @@ class PairCoupling:
         indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
         return indptr, self._columns[entries].astype(PETSc.IntType)
 
+    @property
+    def rows(self) -> np.ndarray:
+        """The local rows of every coupling entry that the Jacobian holds (those that
+        :meth:`add_jacobian` may add to)."""
+        return np.unique(self._rows[self._known])
+
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """A += the coupling terms of the last :meth:`jacobian_changed` (A's sparsity holds
         them, widened by the :attr:`growth` of that call)."""

@@ -456,9 +456,11 @@ class SNESSolver:
         elif self._jacobian_terms_changed():  # always at the first evaluation
             # every Jacobian is K_bc + B, summed in that order: a run restarted from a
             # checkpoint then factorises bit for bit the matrices of the uninterrupted run
-            # (the coupling's terms are added on rows beyond B's: A in full then)
-            self._split.sum_into(A, rows_only=self._coupling is None)
-            if self._coupling is not None:
+            # (the coupling's terms are added afterwards, on rows of their own too)
+            if self._coupling is None:
+                self._split.sum_into(A)
+            else:
+                self._split.sum_into(A, extra_rows=self._coupling.rows)
                 self._coupling.add_jacobian(A)
         else:
             self._jacobian_changes[-1] = False

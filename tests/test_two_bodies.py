@@ -254,3 +254,45 @@ def test_parallel_disks_match_serial(along_axis):
         scale = np.abs(serial[column]).max()
         assert np.abs(parallel[column] - serial[column]).max() <= 1e-8 * scale, column
     np.testing.assert_array_equal(parallel["newton_iterations"], serial["newton_iterations"])
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("variant", ["unbiased", "biased"])
+def test_pair_jacobian_is_the_derivative_of_its_residual(variant):
+    """In contact, the Jacobian of a pair (summed again on the rows the contact terms and
+    the coupling touch) times a direction equals the central difference of the residual
+    along it, at iterates whose contact sets differ: the residual is piecewise affine, so
+    only round-off separates them where no quadrature point changes status in between."""
+    from petsc4py import PETSc
+
+    from nitsche_dolfinx import compat
+
+    problem, _ = two_bodies_problem(
+        dim=2, mesh_size=8.0, v0=1.0, gap=1.0, gamma0=1e-3, variant=variant
+    )
+    simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=4.0, linear_solver="lu")
+    while simulation.t < 2.0:  # in contact from t = 0.5
+        simulation.step()
+    assert simulation.state()["contact_force"] > 0
+    snes = simulation.solver.snes
+    A = snes.getJacobian()[0]
+    w = compat.petsc_vector(simulation.solver.u)
+    direction, plus, minus, product = (w.duplicate() for _ in range(4))
+    rng = np.random.default_rng(MPI.COMM_WORLD.rank)
+    for scale in (1.0, 1.05, 0.95, 1.0):  # other contact sets: other rows, other coupling
+        x = w.copy()
+        x.scale(scale)
+        snes.computeJacobian(x, A)
+        direction.array[:] = rng.standard_normal(direction.array.size)
+        epsilon = 1e-7 * x.norm() / direction.norm()
+        for sign, F in ((1.0, plus), (-1.0, minus)):
+            shifted = x.copy()
+            shifted.axpy(sign * epsilon, direction)
+            snes.computeFunction(shifted, F)
+        plus.axpy(-1.0, minus)
+        plus.scale(1.0 / (2 * epsilon))
+        A.mult(direction, product)
+        product.axpy(-1.0, plus)
+        assert product.norm(PETSc.NormType.NORM_INFINITY) <= 1e-5 * plus.norm(
+            PETSc.NormType.NORM_INFINITY
+        ), scale
