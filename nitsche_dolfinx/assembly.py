@@ -11,6 +11,8 @@ docs/method.md section 8.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -23,8 +25,10 @@ from . import compat
 __all__ = [
     "AffineCellSplit",
     "CellResidualAtZero",
+    "CouplingEntries",
     "Forms",
     "add_diagonal_product",
+    "pattern_matrix",
     "split_cell_integrals",
 ]
 
@@ -57,6 +61,38 @@ class Forms:
     def create_matrix(self, matrix_type: str | None = None) -> PETSc.Mat:
         """A matrix with the sparsity of the form, of PETSc type ``matrix_type`` (AIJ)."""
         return compat.create_matrix(self.form, matrix_type)
+
+
+class CouplingEntries(NamedTuple):
+    """Entries of a matrix on some of its owned rows, in CSR form: the global ``rows``,
+    the row pointers ``indptr`` and the global ``columns`` (PETSc's integer type)."""
+
+    rows: np.ndarray
+    indptr: np.ndarray
+    columns: np.ndarray
+
+
+def pattern_matrix(entries: CouplingEntries, like: PETSc.Mat) -> PETSc.Mat:
+    """A zero matrix of the type, sizes and block size of ``like`` holding ``entries``
+    (for a blocked type, the whole blocks they fall in): the pattern to widen ``like`` by."""
+    comm, sizes = like.getComm(), like.getSizes()
+    bs = like.getBlockSize() if "baij" in like.getType() else 1
+    first = like.getOwnershipRange()[0]
+    counts = np.diff(entries.indptr)
+    rows = np.repeat((np.asarray(entries.rows) - first) // bs, counts).astype(np.int64)
+    columns = np.asarray(entries.columns, dtype=np.int64) // bs
+    width = sizes[1][1] // bs
+    keys = np.unique(rows * width + columns)
+    blocks_per_row = np.bincount(keys // width, minlength=sizes[0][0] // bs)
+    indptr = np.concatenate([[0], np.cumsum(blocks_per_row)]).astype(PETSc.IntType)
+    csr = (indptr, (keys % width).astype(PETSc.IntType), np.zeros(len(keys) * bs * bs))
+    matrix = PETSc.Mat()
+    if bs > 1:
+        matrix.createBAIJ(sizes, bs, comm=comm)
+    else:
+        matrix.createAIJ(sizes, comm=comm)
+    matrix.setPreallocationCSR(csr)
+    return matrix
 
 
 def add_diagonal_product(b: PETSc.Vec, D: PETSc.Vec, x: PETSc.Vec) -> None:
@@ -184,7 +220,9 @@ class AffineCellSplit:
         # without Dirichlet conditions K is K_bc: one matrix less
         self.K = self._J_cell.create_matrix(matrix_type) if bcs else self.K_bc
         self._at_zero = None
-        self._B_rows = None  # the local rows of B with entries
+        self._B_facet_rows = None  # the local rows of B with entries
+        self._B_rows = None  # ... and those of the entries reset by sum_into
+        self._widened = False  # whether the Jacobian has entries beyond K_bc's
         self.update_K()
         if state:
             self._at_zero = CellResidualAtZero(F_cell, unknown, state, matrix_type)
@@ -193,9 +231,12 @@ class AffineCellSplit:
         self.B = self.J_facet.create_matrix() if self.J_facet is not None else None
         self.B_last = None
         self.activity = None
+        self._activity_fresh = False  # the activity of the last facet Jacobian is known
         if activity is not None and self.J_facet is not None:
             self.activity = fem.form(activity)
-            self._activity = compat.create_vector(activity.arguments()[0].ufl_function_space())
+            space = activity.arguments()[0].ufl_function_space()
+            self._activity = compat.create_vector(space)
+            self._activity_dofs = compat.dofmap_array(space)[:, 0]  # a value per cell
         self._inactive = False  # whether B_last was assembled with the facet terms inactive
         self.assemblies = 0  # of the facet Jacobian
 
@@ -246,7 +287,18 @@ class AffineCellSplit:
             local.set(0.0)
         fem_petsc.assemble_vector(self._activity, self.activity)
         self._activity.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._activity.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self._activity_fresh = True
         return self._activity.norm(PETSc.NormType.NORM_INFINITY) == 0.0
+
+    def active_cells(self) -> np.ndarray | None:
+        """Whether each local cell (owned and ghost) has facet terms that are active at
+        the iterate of the last :meth:`facet_jacobian_changed` (a nonzero activity);
+        None if that call did not evaluate the activity."""
+        if not self._activity_fresh:
+            return None
+        with self._activity.localForm() as local:
+            return local.array_r[self._activity_dofs] > 0.0
 
     @property
     def inactive(self) -> bool:
@@ -260,6 +312,7 @@ class AffineCellSplit:
         if self.B is None:  # no facet terms: the Jacobian never changes
             first, self.B_last = self.B_last is None, True
             return first
+        self._activity_fresh = False
         inactive = skip_inactive and self.facet_terms_inactive()
         if inactive and self._inactive and self.B_last is not None:
             return False  # inactive now and at the last assembly: the same Jacobian
@@ -276,21 +329,30 @@ class AffineCellSplit:
             self.B.copy(self.B_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         return True
 
-    def sum_into(self, A: PETSc.Mat, extra_rows: np.ndarray | None = None) -> None:
-        """A = K_bc + B (A on the sparsity of K_bc, which holds B's): the first time after
-        :meth:`update_K` or :meth:`widen` in full, then only on the rows that the facet
-        terms touch (B's rows with entries) and the ``extra_rows`` (local rows where terms
-        are added to A after this sum: the coupling between two bodies), which are set
-        back to K_bc's values first. The same sums, in the same order, so the same values
-        to the bit as a sum in full."""
+    def sum_into(self, A: PETSc.Mat, reset: CouplingEntries | None = None) -> None:
+        """A = K_bc + B, A on the sparsity of K_bc (which holds B's) or a wider one
+        (:meth:`widen`). In full the first time after :meth:`update_K`; then only on the
+        rows that the facet terms touch (B's rows with entries), set back to K_bc's values
+        before B's are added. ``reset``: entries where terms are added to A after this
+        sum (the coupling between two bodies), set back to zero first, their rows with
+        the others. The same sums in the same order, so the same values to the bit as a
+        sum in full."""
         if self.B is None:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         elif self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
-            self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            if self._widened:  # A has entries beyond K_bc's: zero there
+                A.zeroEntries()
+                A.axpy(1.0, self.K_bc, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            else:
+                self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             self._summed_into = A.handle
         else:
-            rows, indptr, columns, values = self._rows_of_K(extra_rows)
+            if reset is not None and len(reset.columns):
+                zeros = np.zeros(len(reset.columns))
+                A.setValuesIJV(reset.indptr, reset.columns, zeros, PETSc.InsertMode.INSERT,
+                               reset.rows)  # fmt: skip
+            rows, indptr, columns, values = self._rows_of_K(reset)
             A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
             A.assemble(PETSc.Mat.AssemblyType.FLUSH)
             B_indptr, B_columns, B_values = self.B.getValuesCSR()
@@ -299,32 +361,32 @@ class AffineCellSplit:
             A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
             A.assemble()
 
-    def _rows_of_K(self, extra_rows: np.ndarray | None):
-        """The rows of K_bc where B has entries, and the ``extra_rows``, in CSR form:
-        (global rows, row pointers, global columns, values); read once after each
-        :meth:`update_K` or :meth:`widen` (the extra rows change only with a widening)."""
-        if self._K_rows is None:
-            first = self.B.getOwnershipRange()[0]
+    def _rows_of_K(self, reset: CouplingEntries | None):
+        """The rows of K_bc where B has entries or ``reset`` has, in CSR form: (global rows,
+        row pointers, global columns, values); read again after :meth:`update_K` or when
+        the rows of ``reset`` are not among them (the coupling grew onto new rows)."""
+        first = self.B.getOwnershipRange()[0]
+        if self._B_facet_rows is None:
             B_indptr = self.B.getValuesCSR()[0]
-            self._B_rows = np.flatnonzero(np.diff(B_indptr) > 0)
-            if extra_rows is not None and len(extra_rows):
-                self._B_rows = np.union1d(self._B_rows, extra_rows)
-            rows = (first + self._B_rows).astype(PETSc.IntType)
-            entries = [self.K_bc.getRow(row) for row in rows]
+            self._B_facet_rows = np.flatnonzero(np.diff(B_indptr) > 0)
+        rows = self._B_facet_rows
+        if reset is not None and len(reset.rows):
+            rows = np.union1d(rows, np.asarray(reset.rows) - first)
+        if self._K_rows is None or not np.array_equal(rows, self._B_rows):
+            self._B_rows = rows
+            global_rows = (first + rows).astype(PETSc.IntType)
+            entries = [self.K_bc.getRow(row) for row in global_rows]
             lengths = [len(columns) for columns, _ in entries]
             indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
             columns = np.concatenate([c for c, _ in entries] or [[]]).astype(PETSc.IntType)
             values = np.concatenate([v for _, v in entries] or [[]])
-            self._K_rows = (rows, indptr, columns, values)
+            self._K_rows = (global_rows, indptr, columns, values)
         return self._K_rows
 
-    def widen(self, pattern: PETSc.Mat) -> None:
-        """Add the entries of ``pattern`` (zeros) to the sparsity of K_bc and B: terms of
-        the Jacobian beyond the forms' sparsity (the coupling between two bodies)."""
-        for matrix in (self.K_bc, self.B, self.B_last):
-            if isinstance(matrix, PETSc.Mat):
-                matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        self._summed_into, self._K_rows = None, None  # new sparsity: A in full next time
+    def widen(self) -> None:
+        """Say that the Jacobian A now has entries beyond the sparsity of K_bc (the
+        coupling between two bodies, added by the caller): a sum in full zeroes them."""
+        self._widened = True
 
     def petsc_objects(self) -> list:
         objects = [self.K_bc, self.F0, self._Kx]

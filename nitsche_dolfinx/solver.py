@@ -19,7 +19,13 @@ from dolfinx import fem
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import AffineCellSplit, Forms, add_diagonal_product
+from .assembly import (
+    AffineCellSplit,
+    CouplingEntries,
+    Forms,
+    add_diagonal_product,
+    pattern_matrix,
+)
 from .linear_solvers import InexactSolves, rigid_body_modes
 
 __all__ = [
@@ -175,7 +181,8 @@ class SNESSolver:
 
     The PETSc option ``mat_type`` (under the prefix) sets the type of the Jacobian and of
     the constant matrices (``baij``: 3 x 3 blocks for 3D elasticity, about three times
-    faster products than AIJ); AIJ by default and with a ``coupling``.
+    faster products than AIJ); AIJ by default. With a ``coupling``, the Jacobian's
+    sparsity is widened by its ``growth`` (whole blocks for ``baij``).
 
     With a Krylov method and no ``ksp_rtol``/``ksp_atol`` of the user's, the linear
     solves are as inexact as Newton allows: :attr:`linear_tolerances`
@@ -230,7 +237,7 @@ class SNESSolver:
         comm = V.mesh.comm
         options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
-        matrix_type = None if coupling is not None else self._matrix_type(options)
+        matrix_type = self._matrix_type(options)
         terms = (F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
         self._split = (
             AffineCellSplit(*terms, unknown=u, state=cell_state, matrix_type=matrix_type)
@@ -399,15 +406,17 @@ class SNESSolver:
         changed = self._split.facet_jacobian_changed(self.skip_inactive_facets)
         if self._coupling is not None:  # zero where the facet terms are inactive
             inactive = self.skip_inactive_facets and self._split.inactive
-            changed = self._coupling.jacobian_changed(inactive) or changed
+            active_cells = self._split.active_cells()
+            changed = self._coupling.jacobian_changed(inactive, active_cells) or changed
             if self._coupling.growth is not None:  # pairs in contact for the first time
                 self._widen(self._coupling.growth)
         return changed
 
-    def _widen(self, pattern: PETSc.Mat) -> None:
-        """Add the entries of ``pattern`` to the sparsity of every Jacobian matrix (PETSc
-        rebuilds them: what was set on them is set again) and factorise anew."""
-        self._split.widen(pattern)
+    def _widen(self, entries: CouplingEntries) -> None:
+        """Add ``entries`` to the sparsity of the Jacobian matrices (PETSc rebuilds them,
+        keeping their values: what was set on them is set again) and factorise anew."""
+        self._split.widen()
+        pattern = pattern_matrix(entries, self._A)
         for matrix in (self._A, self._P):
             if matrix is not None:
                 matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
@@ -415,6 +424,7 @@ class SNESSolver:
                     matrix.setOption(PETSc.Mat.Option.SYMMETRIC, True)
                 if self._near_nullspace is not None:
                     matrix.setNearNullSpace(self._near_nullspace)
+        pattern.destroy()
         self.snes.getKSP().getPC().reset()
 
     def _exact_before(self, iteration: int) -> bool:
@@ -460,7 +470,7 @@ class SNESSolver:
             if self._coupling is None:
                 self._split.sum_into(A)
             else:
-                self._split.sum_into(A, extra_rows=self._coupling.rows)
+                self._split.sum_into(A, reset=self._coupling.entries)
                 self._coupling.add_jacobian(A)
         else:
             self._jacobian_changes[-1] = False
