@@ -152,7 +152,7 @@ class PairCoupling:
                     matrix.destroy()
                 forms = [fem.form(facets.restrict(d)) for d in self._derivatives[index]]
                 matrices = [fem_petsc.create_matrix(form) for form in forms]
-                self._terms[index] = (forms, matrices, None)
+                self._terms[index], self._transposes[index] = (forms, matrices, None), None
 
     def _products(self, index: int):
         """Form pair ``index``'s products of its derivative matrices with T (into the
@@ -187,8 +187,9 @@ class PairCoupling:
         (and, symmetric, the transpose of F_w T: :class:`_Transpose`; collective)."""
         products, width = self._terms[index][2], self._sizes[1][1]
         keys = [self._keys(product) for product in products]
-        transpose = _Transpose(keys[0], width, products[0]) if len(products) == 2 else None
-        self._transposes[index] = transpose
+        transpose = self._transposes[index]
+        if transpose is None and len(products) == 2:  # new products, symmetric
+            transpose = self._transposes[index] = _Transpose(keys[0], width, products[0])
         if self._every is None:  # (the first products: the coupling's entries are theirs)
             return
         keys += [transpose.keys] if transpose is not None else []
