@@ -236,6 +236,7 @@ class SNESSolver:
         user_options = dict(petsc_options or {})
         comm = V.mesh.comm
         options = _solver_options(comm, user_options, self.preconditioner_lag, symmetric)
+        self._options = options  # (set again on a renewed preconditioner)
         self.options_prefix = options_prefix or f"nitsche_{next(_prefix_counter)}_"
         matrix_type = self._matrix_type(options)
         terms = (F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
@@ -425,7 +426,27 @@ class SNESSolver:
                 if self._near_nullspace is not None:
                     matrix.setNearNullSpace(self._near_nullspace)
         pattern.destroy()
-        self.snes.getKSP().getPC().reset()
+        self._renew_preconditioner()
+
+    def _renew_preconditioner(self) -> None:
+        """Set the preconditioner up from nothing at the next solve (the Jacobian's
+        sparsity grew). Algebraic multigrid is made anew, with its options: reset, GAMG
+        keeps level solvers sized for the former hierarchy, and PETSc then fails with
+        'Cannot change local size of Amat after use'."""
+        pc = self.snes.getKSP().getPC()
+        kind = pc.getType()
+        pc.reset()
+        if kind != "gamg":
+            return
+        pc.setType("none")  # destroys GAMG's levels
+        inserted = self._insert_options(self._options)
+        try:
+            pc.setType(kind)
+            pc.setFromOptions()
+        finally:
+            for name in inserted:
+                if name not in self._user_option_names:
+                    PETSc.Options().delValue(name)
 
     def _exact_before(self, iteration: int) -> bool:
         """Whether iterate ``iteration - 1`` solved the step's equation exactly (up to
