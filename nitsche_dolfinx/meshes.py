@@ -23,6 +23,8 @@ __all__ = [
     "bar_mesh",
     "block_mesh",
     "cell_diameter",
+    "facet_cells",
+    "facet_vertices",
     "load_mesh",
     "save_mesh",
     "tag_facets",
@@ -122,25 +124,36 @@ class _FacetGeometry:
 
     def __init__(self, mesh, facets: np.ndarray):
         tdim = mesh.topology.dim
-        fdim = tdim - 1
         x = mesh.geometry.x
         nodes = _vertex_nodes(mesh)
-        if fdim == 0:
-            facet_vertices = facets[:, None]
-        else:
-            mesh.topology.create_connectivity(fdim, 0)
-            connectivity = mesh.topology.connectivity(fdim, 0)
-            per_facet = connectivity.offsets[1] - connectivity.offsets[0]
-            facet_vertices = connectivity.array.reshape(-1, per_facet)[facets]
-        self.vertices = x[nodes[facet_vertices]]
-        cells = mesh.topology.connectivity(fdim, tdim)
-        first_cell = cells.array[cells.offsets[facets]]
+        self.vertices = x[nodes[facet_vertices(mesh, facets)]]
+        first_cell = facet_cells(mesh, facets)
         cell_vertices = mesh.topology.connectivity(tdim, 0)
         per_cell = cell_vertices.offsets[1] - cell_vertices.offsets[0]
         cell_centres = x[nodes[cell_vertices.array.reshape(-1, per_cell)[first_cell]]].mean(axis=1)
         self.normals = _outward_normals(self.vertices, cell_centres)
         local = float(np.abs(x).max(initial=0.0))
         self.extent = max(mesh.comm.allreduce(local, op=MPI.MAX), 1e-300)
+
+
+def facet_vertices(mesh, facets: np.ndarray) -> np.ndarray:
+    """The vertices of each of ``facets``, shape (facets, vertices per facet); in 1D a
+    facet is its vertex."""
+    fdim = mesh.topology.dim - 1
+    if fdim == 0:
+        return np.asarray(facets)[:, None]
+    mesh.topology.create_connectivity(fdim, 0)
+    connectivity = mesh.topology.connectivity(fdim, 0)
+    per_facet = connectivity.offsets[1] - connectivity.offsets[0]
+    return connectivity.array.reshape(-1, per_facet)[facets]
+
+
+def facet_cells(mesh, facets: np.ndarray) -> np.ndarray:
+    """The first cell of each of ``facets`` (the cell of a boundary facet)."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    connectivity = mesh.topology.connectivity(tdim - 1, tdim)
+    return connectivity.array[connectivity.offsets[facets]]
 
 
 def _vertex_nodes(mesh) -> np.ndarray:

@@ -27,6 +27,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .assembly import CouplingEntries
+from .meshes import facet_cells, facet_vertices
 
 __all__ = ["PairCoupling"]
 
@@ -269,18 +270,12 @@ class PairCoupling:
         columns = self._columns[mask].astype(PETSc.IntType)
         return CouplingEntries((self._offset + present).astype(PETSc.IntType), indptr, columns)
 
-    def _csr(self, entries: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Row pointers (owned rows) and global columns of the ``entries`` (a mask)."""
-        counts = np.bincount(self._rows[entries], minlength=self._sizes[0][0])
-        indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
-        return indptr, self._columns[entries].astype(PETSc.IntType)
-
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """A += the coupling terms of the last :meth:`jacobian_changed` (A's sparsity holds
         them, widened by the :attr:`growth` of that call)."""
         nonzero, values = self._active
-        indptr, columns = self._csr(nonzero)
-        A.setValuesCSR(indptr, columns, values, addv=PETSc.InsertMode.ADD_VALUES)
+        rows, indptr, columns = self._entries_of(nonzero)
+        A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.ADD, rows)
         A.assemble()
 
     def petsc_objects(self) -> list:
@@ -345,20 +340,9 @@ class _ContactFacets:
         self._mesh, self.tag = mesh, ds.subdomain_id()
         tags = ds.subdomain_data()
         self.facets = np.sort(tags.indices[tags.values == self.tag]).astype(np.int32)
-        tdim = mesh.topology.dim
-        self._cells = self._first_links(tdim - 1, tdim)
-        mesh.topology.create_connectivity(tdim - 1, 0)
-        links = mesh.topology.connectivity(tdim - 1, 0)
-        per_facet = links.offsets[1] - links.offsets[0]
-        starts = links.offsets[self.facets]
-        self._vertices = links.array[starts[:, None] + np.arange(per_facet)]
+        self._cells = facet_cells(mesh, self.facets)
+        self._vertices = facet_vertices(mesh, self.facets)
         self.current = np.ones(len(self.facets), dtype=bool)
-
-    def _first_links(self, dim: int, to: int) -> np.ndarray:
-        """The first entity of dimension ``to`` linked to each facet."""
-        self._mesh.topology.create_connectivity(dim, to)
-        links = self._mesh.topology.connectivity(dim, to)
-        return links.array[links.offsets[self.facets]]
 
     def update(self, active_cells: np.ndarray) -> bool:
         """Take the facets of ``active_cells`` and their neighbours when the contact has
