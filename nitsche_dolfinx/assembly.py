@@ -16,21 +16,29 @@ from typing import NamedTuple
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
 from petsc4py import PETSc
-from ufl.algorithms import expand_derivatives
+from ufl.algorithms import compute_form_data, expand_derivatives
 
 from . import compat
+from .meshes import facet_cells, facet_vertices
 
 __all__ = [
     "AffineCellSplit",
     "CellResidualAtZero",
+    "ContactFacets",
     "CouplingEntries",
     "Forms",
     "add_diagonal_product",
     "pattern_matrix",
     "split_cell_integrals",
 ]
+
+#: Forms restricted to the facets near contact are compiled again on fewer facets once
+#: they are assembled on more than this many times the facets needed (plus a few).
+_SHRINK = 2
 
 
 def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | None]:
@@ -61,6 +69,117 @@ class Forms:
     def create_matrix(self, matrix_type: str | None = None) -> PETSc.Mat:
         """A matrix with the sparsity of the form, of PETSc type ``matrix_type`` (AIJ)."""
         return compat.create_matrix(self.form, matrix_type)
+
+
+def facet_quadrature_degrees(form: ufl.Form) -> dict:
+    """The quadrature degree FFCx gives each exterior facet integral of ``form`` (the
+    degree UFL estimates for it), by subdomain id."""
+    data = compute_form_data(
+        form,
+        do_apply_function_pullbacks=True,
+        do_apply_integral_scaling=True,
+        do_apply_geometry_lowering=True,
+        preserve_geometry_types=(ufl.classes.Jacobian,),
+        do_apply_restrictions=True,
+        do_append_everywhere_integrals=False,
+    )
+    degrees = {}
+    for integral_data in data.integral_data:
+        if integral_data.integral_type == "exterior_facet":
+            for integral in integral_data.integrals:
+                degree = integral.metadata().get("quadrature_degree")
+                if degree is None or degree < 0:
+                    degree = integral.metadata()["estimated_polynomial_degree"]
+                ids = integral_data.subdomain_id
+                for key in ids if isinstance(ids, (tuple, list)) else (ids,):
+                    degrees[key] = max(degrees.get(key, 0), int(np.max(degree)))
+    return degrees
+
+
+def with_facet_quadrature(form: ufl.Form, degrees: dict) -> ufl.Form:
+    """``form`` with its exterior facet integrals on subdomain ``i`` computed by the
+    quadrature of degree ``degrees[i]`` (the others as they are)."""
+    integrals = []
+    for integral in form.integrals():
+        degree = degrees.get(integral.subdomain_id())
+        if integral.integral_type() == "exterior_facet" and degree is not None:
+            metadata = {**integral.metadata(), "quadrature_degree": degree}
+            integral = integral.reconstruct(metadata=metadata)
+        integrals.append(integral)
+    return ufl.Form(integrals)
+
+
+class ContactFacets:
+    """The facets on which terms that vanish out of contact are assembled: those of the
+    cells whose contact terms are active, with one ring of neighbours (facets sharing a
+    vertex) as a margin, so that the set is made again only when the contact zone has
+    moved beyond it, or when it holds more than :data:`_SHRINK` times the facets needed.
+    All facets at first. A term that is exactly zero on the other facets has the same
+    values to the bit on these (its sums lack only zeros), whatever their history.
+
+    Args:
+        mesh: The mesh.
+        tags: The facet tags of the exterior facet integrals.
+        ids: The tags of the facets (subdomain ids of the integrals).
+    """
+
+    def __init__(self, mesh, tags, ids):
+        self._mesh, self._tags = mesh, tags
+        chosen = np.isin(tags.values, np.asarray(list(ids)))
+        order = np.argsort(tags.indices[chosen], kind="stable")
+        self.facets = tags.indices[chosen][order].astype(np.int32)
+        self._values = tags.values[chosen][order].astype(np.int32)
+        self._cells = facet_cells(mesh, self.facets)
+        self._vertices = facet_vertices(mesh, self.facets)
+        self.current = np.ones(len(self.facets), dtype=bool)
+
+    @classmethod
+    def of_measure(cls, mesh, ds) -> ContactFacets:
+        """The facets of the measure ``ds(tag)``."""
+        return cls(mesh, ds.subdomain_data(), [ds.subdomain_id()])
+
+    @classmethod
+    def of_form(cls, mesh, form: ufl.Form) -> ContactFacets | None:
+        """The facets of the exterior facet integrals of ``form``; None unless each has
+        facet tags and an integer subdomain id (an integral over every facet has no
+        tags to restrict)."""
+        integrals = [i for i in form.integrals() if i.integral_type() == "exterior_facet"]
+        ids = [integral.subdomain_id() for integral in integrals]
+        if not integrals or not all(isinstance(i, (int, np.integer)) for i in ids):
+            return None
+        tags = integrals[0].subdomain_data()
+        if tags is None or any(i.subdomain_data() is not tags for i in integrals):
+            return None
+        return cls(mesh, tags, set(ids))
+
+    def update(self, active_cells: np.ndarray) -> bool:
+        """Take the facets of ``active_cells`` and their neighbours when the contact has
+        left the current ones, or uses few of them; True if the set changed."""
+        needed = active_cells[self._cells]
+        marked = np.zeros(self._vertices.max(initial=-1) + 1, dtype=bool)
+        marked[self._vertices[needed].ravel()] = True
+        wanted = marked[self._vertices].any(axis=1) if len(self._vertices) else needed
+        beyond = (needed & ~self.current).any()
+        loose = self.current.sum() > _SHRINK * wanted.sum() + 8
+        if beyond or loose:
+            self.current = wanted
+            return True
+        return False
+
+    def restrict(self, form: ufl.Form) -> ufl.Form:
+        """``form`` with its exterior facet integrals over the current facets only (the
+        same integrands: FFCx finds the compiled form in its cache)."""
+        dim = self._mesh.topology.dim - 1
+        tags = dmesh.meshtags(
+            self._mesh, dim, self.facets[self.current], self._values[self.current]
+        )
+        integrals = [
+            integral.reconstruct(subdomain_data=tags)
+            if integral.integral_type() == "exterior_facet"
+            else integral
+            for integral in form.integrals()
+        ]
+        return ufl.Form(integrals)
 
 
 class CouplingEntries(NamedTuple):
@@ -167,16 +286,42 @@ class CellResidualAtZero:
         return [self._rest_vector] + [matrix for _, matrix, _ in self._terms]
 
 
+def _ranges(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The positions of the entries of CSR ``rows`` (``indptr`` their pointers) and the
+    length of each row."""
+    starts, lengths = indptr[rows], indptr[rows + 1] - indptr[rows]
+    offsets = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+    positions = np.repeat(starts - offsets, lengths) + np.arange(lengths.sum())
+    return positions.astype(np.int64), lengths
+
+
+def _jacobian(form: ufl.Form, unknown, trial, degrees: dict) -> ufl.Form:
+    """The derivative of ``form`` in ``unknown``, on facet quadratures of ``degrees``."""
+    return with_facet_quadrature(expand_derivatives(ufl.derivative(form, unknown, trial)), degrees)
+
+
+def _pointers(lengths: np.ndarray) -> np.ndarray:
+    """CSR row pointers of rows of ``lengths`` entries."""
+    return np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+
+
 class AffineCellSplit:
     """The cell terms of an affine-in-the-bulk problem, assembled once, and the facet terms.
 
     The residual is ``F(x) = K x + F_cell(0) + F_facet(x)`` and the Jacobian
-    ``J = K_bc + J_facet(x)``, where ``K`` is the constant Jacobian of the cell terms
-    (``K_bc``: with the Dirichlet rows and columns replaced by the identity; ``K``
-    itself without Dirichlet conditions). ``K_bc`` lives on the sparsity of J
-    (``J_forms``), of PETSc type ``matrix_type``, and the facet Jacobian ``B`` on the
-    sparsity of the facet terms alone (the cells at Gamma_C): summing them is a copy of
-    K_bc and an addition over B's entries.
+    ``J = K_bc + B``, where ``K`` is the constant Jacobian of the cell terms (``K_bc``:
+    with the Dirichlet rows and columns replaced by the identity; ``K`` itself without
+    Dirichlet conditions) and ``B`` the facet Jacobian. ``K_bc`` lives on the sparsity
+    of J (``J_forms``), of PETSc type ``matrix_type``, and B on the sparsity of the facet
+    terms alone (the cells at Gamma_C): summing them is a copy of K_bc and an addition
+    over B's entries.
+
+    With ``facet_parts`` (docs/method.md section 8), the facet terms of F are the sum of
+    an affine part, whose constant Jacobian joins K_bc, and a part that vanishes with its
+    Jacobian wherever ``activity`` is zero (the contact force terms): B is then that
+    part's Jacobian alone, assembled on the facets of the cells in contact and a ring of
+    neighbours (:class:`ContactFacets`), and each sum sets back only the rows where B
+    is nonzero now or was at the last sum.
 
     Args:
         F, J: The residual and its Jacobian (UFL forms).
@@ -188,6 +333,8 @@ class AffineCellSplit:
         unknown, state: With ``state`` (Functions in which the cell terms are affine),
             F_cell(0) by :class:`CellResidualAtZero`; else by a cell assembly.
         matrix_type: The PETSc type of K and K_bc (None: AIJ).
+        facet_parts: With ``activity`` and ``unknown``: (affine part, force part) of the
+            facet terms of F, whose sum they are.
     """
 
     def __init__(
@@ -202,6 +349,7 @@ class AffineCellSplit:
         unknown=None,
         state=(),
         matrix_type=None,
+        facet_parts=None,
     ):
         self.bcs = bcs
         F_cell, F_facet = split_cell_integrals(F)
@@ -210,30 +358,55 @@ class AffineCellSplit:
             raise ValueError("affine_cell_terms needs cell integrals in F and J")
         self.F_cell = Forms(F_cell)
         self.F_facet = Forms(F_facet) if F_facet is not None else None
-        self.J_facet = Forms(J_facet) if J_facet is not None else None
         self._J_cell, self._D, self._D_bc = Forms(J_cell), D, D_bc
+        self._J_constant = self._J_cell  # the constant terms of J (K_bc)
+        constant = J_cell
+        self._facets = None  # the ContactFacets that B is assembled on (None: all)
+        self._J_force = None  # the UFL form of B when restricted to them
+        degrees = None
+        if facet_parts is not None and J_facet is not None and activity is not None:
+            degrees = facet_quadrature_degrees(J_facet)
+            trial = J.arguments()[1]
+            affine, force = (_jacobian(part, unknown, trial, degrees) for part in facet_parts)
+            if not affine.empty():
+                constant = J_cell + affine
+                self._J_constant = Forms(constant)
+            self._J_force = force
+            self._facets = ContactFacets.of_form(unknown.function_space.mesh, force)
+            J_facet = force
+        self.J_facet = Forms(J_facet) if J_facet is not None else None
+        self._constants = constant.constants()  # those of K_bc: see constants_changed
+        self._constants_key = None
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
         # a new matrix, so J is assembled once to set them (and zeroed by update_K)
         self.K_bc = J_forms.create_matrix(matrix_type)
         J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
-        # without Dirichlet conditions K is K_bc: one matrix less
-        self.K = self._J_cell.create_matrix(matrix_type) if bcs else self.K_bc
+        # without Dirichlet conditions or facet terms in K_bc, K is K_bc: one matrix less
+        separate = bcs or self._J_constant is not self._J_cell
+        self.K = self._J_cell.create_matrix(matrix_type) if separate else self.K_bc
         self._at_zero = None
         self._B_facet_rows = None  # the local rows of B with entries
         self._B_rows = None  # ... and those of the entries reset by sum_into
+        self._B_entry_rows = None  # the local row of each entry of B
+        self._B_hot = np.zeros(0, dtype=np.int64)  # the rows where the last sum's B is nonzero
         self._widened = False  # whether the Jacobian has entries beyond K_bc's
         self.update_K()
         if state:
             self._at_zero = CellResidualAtZero(F_cell, unknown, state, matrix_type)
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
-        self.B = self.J_facet.create_matrix() if self.J_facet is not None else None
+        self.B = None
+        if self.J_facet is not None:  # its entries: all of the facets' (see K_bc)
+            self.B = self.J_facet.create_matrix()
+            self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
+            self.B.assemble()
         self.B_last = None
         self.activity = None
         self._activity_fresh = False  # the activity of the last facet Jacobian is known
         if activity is not None and self.J_facet is not None:
-            self.activity = fem.form(activity)
+            # with B's quadrature, the activity is nonzero on each cell where B is
+            self.activity = fem.form(with_facet_quadrature(activity, degrees or {}))
             space = activity.arguments()[0].ufl_function_space()
             self._activity = compat.create_vector(space)
             self._activity_dofs = compat.dofmap_array(space)[:, 0]  # a value per cell
@@ -241,14 +414,14 @@ class AffineCellSplit:
         self.assemblies = 0  # of the facet Jacobian
 
     def update_K(self) -> None:
-        """Assemble K and K_bc for the current coefficients (the constant cell terms:
-        again only when a constant in them changes, such as the time step)."""
-        pairs = [(self.K_bc, self.bcs, self._D_bc)]
+        """Assemble K and K_bc for the current coefficients (the constant terms: again only
+        when a constant in them changes, such as the time step)."""
+        pairs = [(self.K_bc, self._J_constant, self.bcs, self._D_bc)]
         if self.K is not self.K_bc:
-            pairs.append((self.K, [], self._D))
-        for matrix, bcs, D in pairs:
+            pairs.append((self.K, self._J_cell, [], self._D))
+        for matrix, forms, bcs, D in pairs:
             matrix.zeroEntries()
-            self._J_cell.assemble_matrix(matrix, bcs, 1.0)
+            forms.assemble_matrix(matrix, bcs, 1.0)
             matrix.assemble()
             if D is not None:  # a diagonal (lumped) mass belongs to the constant cell terms
                 matrix.setDiagonal(D, addv=PETSc.InsertMode.ADD)
@@ -256,6 +429,15 @@ class AffineCellSplit:
         if self._at_zero is not None:
             self._at_zero.update()
         self._summed_into, self._K_rows = None, None  # A = K_bc + B in full next time
+        self._constants_key = self._key()
+
+    def _key(self) -> tuple:
+        return tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+
+    def constants_changed(self) -> bool:
+        """Whether a constant of K_bc (the time step, gamma0, Theta, a material constant)
+        has another value than at the last :meth:`update_K`."""
+        return self._key() != self._constants_key
 
     def update_cell_residual(self, u: fem.Function) -> None:
         """F_cell(0) for the current coefficients (with the state: by matrix-vector
@@ -318,6 +500,8 @@ class AffineCellSplit:
             return False  # inactive now and at the last assembly: the same Jacobian
         self._inactive = inactive
         self.assemblies += 1
+        if self._facets is not None:
+            self._restrict()
         self.B.zeroEntries()
         self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
@@ -329,37 +513,63 @@ class AffineCellSplit:
             self.B.copy(self.B_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         return True
 
+    def _restrict(self) -> None:
+        """Compile B's form again on the facets near the contact of the iterate when the
+        contact has moved beyond them or left most of them (collective: FFCx's cache
+        is read by every rank)."""
+        if not self._activity_fresh:
+            self.facet_terms_inactive()
+        changed = self._facets.update(self.active_cells())
+        if self.B.getComm().tompi4py().allreduce(changed, op=MPI.LOR):
+            self.J_facet = Forms(self._facets.restrict(self._J_force))
+
     def sum_into(self, A: PETSc.Mat, reset: CouplingEntries | None = None) -> None:
         """A = K_bc + B, A on the sparsity of K_bc (which holds B's) or a wider one
         (:meth:`widen`). In full the first time after :meth:`update_K`; then only on the
-        rows that the facet terms touch (B's rows with entries), set back to K_bc's values
-        before B's are added. ``reset``: entries where terms are added to A after this
-        sum (the coupling between two bodies), set back to zero first, their rows with
-        the others. The same sums in the same order, so the same values to the bit as a
-        sum in full."""
+        rows where B is nonzero now or was at the last sum, set back to K_bc's values
+        before B's are added (the other rows hold K_bc's). ``reset``: entries where terms
+        are added to A after this sum (the coupling between two bodies), set back to zero
+        first, their rows with the others. The same sums in the same order, so the same
+        values to the bit as a sum in full."""
         if self.B is None:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        elif self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
+            return
+        B_indptr, B_columns, B_values = self.B.getValuesCSR()
+        if self._B_entry_rows is None:
+            rows = np.arange(len(B_indptr) - 1)
+            self._B_entry_rows = np.repeat(rows, np.diff(B_indptr))
+        hot = np.flatnonzero(
+            np.bincount(self._B_entry_rows[B_values != 0.0], minlength=len(B_indptr) - 1)
+        )
+        if self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
             if self._widened:  # A has entries beyond K_bc's: zero there
                 A.zeroEntries()
                 A.axpy(1.0, self.K_bc, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             else:
                 self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-            self._summed_into = A.handle
-        else:
-            if reset is not None and len(reset.columns):
-                zeros = np.zeros(len(reset.columns))
-                A.setValuesIJV(reset.indptr, reset.columns, zeros, PETSc.InsertMode.INSERT,
-                               reset.rows)  # fmt: skip
-            rows, indptr, columns, values = self._rows_of_K(reset)
-            A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.INSERT, rows)
-            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
-            B_indptr, B_columns, B_values = self.B.getValuesCSR()
-            lengths = np.diff(B_indptr)[self._B_rows]
-            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
-            A.setValuesIJV(indptr, B_columns, B_values, PETSc.InsertMode.ADD, rows)
-            A.assemble()
+            self._summed_into, self._B_hot = A.handle, hot
+            return
+        if reset is not None and len(reset.columns):
+            zeros = np.zeros(len(reset.columns))
+            A.setValuesIJV(reset.indptr, reset.columns, zeros, PETSc.InsertMode.INSERT,
+                           reset.rows)  # fmt: skip
+        first = self.B.getOwnershipRange()[0]
+        rows, indptr, columns, values = self._rows_of_K(reset)
+        local = rows - first
+        touched = np.union1d(hot, self._B_hot)
+        if reset is not None and len(reset.rows):
+            touched = np.union1d(touched, np.asarray(reset.rows) - first)
+        chosen = np.searchsorted(local, touched)
+        entries, lengths = _ranges(indptr, chosen)
+        A.setValuesIJV(_pointers(lengths), columns[entries], values[entries],
+                       PETSc.InsertMode.INSERT, rows[chosen])  # fmt: skip
+        A.assemble(PETSc.Mat.AssemblyType.FLUSH)
+        entries, lengths = _ranges(B_indptr, hot)
+        A.setValuesIJV(_pointers(lengths), B_columns[entries], B_values[entries],
+                       PETSc.InsertMode.ADD, (first + hot).astype(PETSc.IntType))  # fmt: skip
+        A.assemble()
+        self._B_hot = hot
 
     def _rows_of_K(self, reset: CouplingEntries | None):
         """The rows of K_bc where B has entries or ``reset`` has, in CSR form: (global rows,
@@ -372,7 +582,7 @@ class AffineCellSplit:
         rows = self._B_facet_rows
         if reset is not None and len(reset.rows):
             rows = np.union1d(rows, np.asarray(reset.rows) - first)
-        if self._K_rows is None or not np.array_equal(rows, self._B_rows):
+        if self._K_rows is None or not np.isin(rows, self._B_rows).all():
             self._B_rows = rows
             global_rows = (first + rows).astype(PETSc.IntType)
             entries = [self.K_bc.getRow(row) for row in global_rows]

@@ -257,25 +257,33 @@ class NitscheContact:
         traction = self.friction_traction(u, velocity, normal_force, reference)
         return -ufl.dot(traction, self.tangential_test_projection(v)) * self.ds
 
+    def affine_terms(self, u, v):
+        """The terms of :meth:`residual` that are affine in u whatever the contact: the
+        boundary part of A_Thgamma (its tangential part too with friction)."""
+        form = self.consistency_term(u, v)
+        if self.frictional:
+            form = form + self.tangential_consistency_term(u, v)
+        return form
+
+    def force_terms(self, u, velocity, force, v, reference=None):
+        """The other terms of :meth:`residual`, those of the normal ``force``: with it, they
+        and their derivatives are exactly zero wherever the force is."""
+        form = self.contact_term(force, v)
+        if self.frictional:
+            form = form + self.friction_term(u, self._velocity(velocity), force, v, reference)
+        return form
+
     def residual(self, u, v, velocity=None, reference=None):
         """Boundary terms of the Nitsche operator B(u)(v) at one time level; with friction,
         ``velocity`` is u' at that level (``reference``: see :meth:`friction_traction`)."""
         force = positive_part(self.projection(u))
-        form = self.consistency_term(u, v) + self.contact_term(force, v)
-        if self.frictional:
-            form = form + self.tangential_consistency_term(u, v)
-            form = form + self.friction_term(u, self._velocity(velocity), force, v, reference)
-        return form
+        return self.affine_terms(u, v) + self.force_terms(u, velocity, force, v, reference)
 
     def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
         """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi; with
         friction, the step's mean velocity (u_new - u_old) / tau and the threshold mu_f Phi."""
         u_mid, force = self.hybrid_state(u_old, u_new)
-        form = self.consistency_term(u_mid, v) + self.contact_term(force, v)
-        if self.frictional:
-            form = form + self.tangential_consistency_term(u_mid, v)
-            form = form + self.friction_term(u_mid, self._velocity(velocity), force, v, reference)
-        return form
+        return self.affine_terms(u_mid, v) + self.force_terms(u_mid, velocity, force, v, reference)
 
     def hybrid_state(self, u_old, u_new):
         """What the hybrid scheme's contact terms see: the midpoint u^{n+1/2} and the

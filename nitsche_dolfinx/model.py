@@ -444,6 +444,20 @@ class ContactProblem:
         is inactive: there the terms are affine and their Jacobian does not change."""
         return ContactTerms(self.contacts, lambda c, u, velocity, force, q: force * q * c.ds)
 
+    def contact_parts(self, reference=None):
+        """The contact terms of :meth:`operator` as two models with the interface of the
+        time schemes: the terms affine in u whatever the contact, and those of the normal
+        force, which vanish with their derivatives wherever the force does (``reference``:
+        the guarded friction law, see :meth:`guarded_friction`)."""
+
+        def affine(contact, u, velocity, force, v):
+            return contact.affine_terms(u, v)
+
+        def forces(contact, u, velocity, force, v):
+            return contact.force_terms(u, velocity, force, v, reference)
+
+        return ContactTerms(self.contacts, affine), ContactTerms(self.contacts, forces)
+
     def load(self, v):
         """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
         zero = fem.Constant(self.mesh, np.zeros(self.gdim))

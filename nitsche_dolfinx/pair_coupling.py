@@ -20,20 +20,14 @@ from __future__ import annotations
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import CouplingEntries
-from .meshes import facet_cells, facet_vertices
+from .assembly import ContactFacets, CouplingEntries
 
 __all__ = ["PairCoupling"]
-
-#: A pair's forms are compiled again on fewer facets once they are assembled on more than
-#: this many times the facets in contact and their neighbours (plus a few).
-_SHRINK = 2
 
 
 class PairCoupling:
@@ -42,7 +36,7 @@ class PairCoupling:
 
     The coupling terms vanish wherever the contact terms do: their matrices and products
     with T live on the facets of each slave surface near the contact (those of the cells
-    in contact and a ring of neighbours, :class:`_ContactFacets`), made again when the
+    in contact and a ring of neighbours, :class:`.ContactFacets`), made again when the
     contact zone moves beyond them, and filled again at each Jacobian; while the contact
     terms are inactive everywhere nothing is assembled. The entries of the coupling are
     those of the products on all of the surfaces, fixed; each product's go to their
@@ -79,7 +73,7 @@ class PairCoupling:
             forms = [fem.form(derivative) for derivative in derivatives]
             self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
             self._derivatives.append(derivatives)
-            self._facets.append(_ContactFacets(V.mesh, pair.ds))
+            self._facets.append(ContactFacets.of_measure(V.mesh, pair.ds))
         self._g = compat.create_vector(V)
         self._Tg = self._g.duplicate()
         index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
@@ -127,7 +121,7 @@ class PairCoupling:
         the others would wait for it, pair by pair; see
         :func:`~nitsche_dolfinx.compat.add_matrix_entries`). With ``active_cells`` (a
         bool per local cell: contact terms active), on the facets of the cells in contact
-        and their neighbours only (:class:`_ContactFacets`): elsewhere the coupling terms
+        and their neighbours only (:class:`.ContactFacets`): elsewhere the coupling terms
         vanish."""
         if active_cells is not None:
             self._restrict(active_cells)
@@ -141,7 +135,7 @@ class PairCoupling:
 
     def _restrict(self, active_cells: np.ndarray) -> None:
         """Compile each pair's derivative forms again on the facets of its
-        :class:`_ContactFacets` when the contact has reached beyond them or left most of
+        :class:`.ContactFacets` when the contact has reached beyond them or left most of
         them, with matrices and products on their sparsity (collective: every rank
         compiles when any rank's facets change)."""
         changes = [facets.update(active_cells) for facets in self._facets]
@@ -322,52 +316,3 @@ class _Transpose:
         """The values of the transposed entries this rank owns, in the order of :attr:`keys`."""
         values = np.ascontiguousarray(self._product.getValuesCSR()[2][self._order])
         return self._exchange(values, MPI.DOUBLE, np.float64)
-
-
-class _ContactFacets:
-    """The facets of a slave surface on which its coupling forms are assembled: those of
-    the cells whose contact terms are active, with one ring of neighbours (facets sharing
-    a vertex) as a margin, so that the set is made again only when the contact zone has
-    moved beyond it, or when it holds more than :data:`_SHRINK` times the facets needed.
-    All facets at first.
-
-    Args:
-        mesh: The mesh.
-        ds: The surface's measure ``ds(tag)``, whose subdomain data are the facet tags.
-    """
-
-    def __init__(self, mesh, ds):
-        self._mesh, self.tag = mesh, ds.subdomain_id()
-        tags = ds.subdomain_data()
-        self.facets = np.sort(tags.indices[tags.values == self.tag]).astype(np.int32)
-        self._cells = facet_cells(mesh, self.facets)
-        self._vertices = facet_vertices(mesh, self.facets)
-        self.current = np.ones(len(self.facets), dtype=bool)
-
-    def update(self, active_cells: np.ndarray) -> bool:
-        """Take the facets of ``active_cells`` and their neighbours when the contact has
-        left the current ones, or uses few of them; True if the set changed."""
-        needed = active_cells[self._cells]
-        marked = np.zeros(self._vertices.max(initial=-1) + 1, dtype=bool)
-        marked[self._vertices[needed].ravel()] = True
-        wanted = marked[self._vertices].any(axis=1) if len(self._vertices) else needed
-        beyond = (needed & ~self.current).any()
-        loose = self.current.sum() > _SHRINK * wanted.sum() + 8
-        if beyond or loose:
-            self.current = wanted
-            return True
-        return False
-
-    def restrict(self, form: ufl.Form) -> ufl.Form:
-        """``form`` with its exterior facet integrals over the current facets only (the
-        same integrands: FFCx finds the compiled form in its cache)."""
-        dim = self._mesh.topology.dim - 1
-        facets = self.facets[self.current]
-        tags = dmesh.meshtags(self._mesh, dim, facets, np.full(len(facets), self.tag, np.int32))
-        integrals = [
-            integral.reconstruct(subdomain_data=tags)
-            if integral.integral_type() == "exterior_facet"
-            else integral
-            for integral in form.integrals()
-        ]
-        return ufl.Form(integrals)

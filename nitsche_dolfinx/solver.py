@@ -173,6 +173,11 @@ class SNESSolver:
             cell terms are affine and which change between solves (the state of the time
             level); their constant part of the residual is then a matrix-vector product
             per Function instead of a cell assembly per solve.
+        facet_parts: With ``affine_cell_terms`` and ``facet_activity``: the facet terms
+            of F as (affine part, force part), whose sum they are: the force part
+            vanishes, with its Jacobian, wherever ``facet_activity`` is zero (the contact
+            force). The affine part's constant Jacobian is then assembled once with the
+            cell terms, and the force part's only near the contact.
         symmetric: The Jacobian is symmetric (for contact: Theta = 1 and no friction).
             Serially with MUMPS, the default direct solver is then its symmetric LDL^T
             factorisation (``pc_type cholesky``, pivoting: the matrix need not be
@@ -208,6 +213,7 @@ class SNESSolver:
         symmetric: bool = False,
         coupling=None,
         cell_state=(),
+        facet_parts=None,
     ):
         self.u = u
         self.bcs = list(bcs)
@@ -241,7 +247,13 @@ class SNESSolver:
         matrix_type = self._matrix_type(options)
         terms = (F, J, self.J_forms, self.bcs, self._D, self._D_bc, facet_activity)
         self._split = (
-            AffineCellSplit(*terms, unknown=u, state=cell_state, matrix_type=matrix_type)
+            AffineCellSplit(
+                *terms,
+                unknown=u,
+                state=cell_state,
+                matrix_type=matrix_type,
+                facet_parts=facet_parts,
+            )
             if affine_cell_terms
             else None
         )
@@ -649,6 +661,8 @@ class SNESSolver:
         """What depends on the coefficients other than ``u`` (the constant part of the cell
         terms, the partners of the state across contact pairs), for their new values."""
         if self._split is not None:
+            if self._split.constants_changed():  # (gamma0, Theta set by the user)
+                self.update_constant_terms()
             self._split.update_cell_residual(self.u)
         if self._coupling is not None:
             self._coupling.update()

@@ -302,10 +302,14 @@ class NitscheStepper(TimeLevels):
             model = self._guarded.model
         test = ufl.TestFunction(problem.V)
         F = scheme.residual(model, *state, test)
-        activity = None
+        activity, facet_parts = None, None
         if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
             cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
             activity = scheme.residual(problem.contact_activity(), *state, cellwise)
+            facet_parts = [
+                scheme.residual(part, *state, test)
+                for part in problem.contact_parts(getattr(model, "reference", None))
+            ]
         # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
         # the unknown, and only the contact terms on Gamma_C change the Jacobian.
         return SNESSolver(
@@ -320,6 +324,7 @@ class NitscheStepper(TimeLevels):
             symmetric=problem.symmetric_jacobian,
             coupling=self._pair_coupling(F, state, test, bcs),
             cell_state=(self.u, self.v, self.a) if reuse_jacobian else (),
+            facet_parts=facet_parts,
         )
 
     def _pair_coupling(self, F, state, test, bcs):

@@ -7,6 +7,7 @@ import pytest
 from mpi4py import MPI
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, compat
+from nitsche_dolfinx.assembly import Forms
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.history import STATE_COLUMNS
 
@@ -93,10 +94,10 @@ def test_xdmf_has_every_field_at_every_output_time(mpi_tmp_path):
     assert text.count('<Time Value="') >= 5
 
 
-def _disk_steps(steps, activity=True, **options):
+def _disk_steps(steps, activity=True, mesh_size=8.0, **options):
     """The disk's simulation after ``steps`` steps, and the facet Jacobian's assemblies
     and the factorisations after each step (``activity=False``: without the skip)."""
-    problem = impact_problem(dim=2, mesh_size=8.0)
+    problem = impact_problem(dim=2, mesh_size=mesh_size)
     simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=steps * 0.1, **options)
     if not activity:
         simulation.solver.skip_inactive_facets = False  # assemble at every evaluation
@@ -121,6 +122,31 @@ def test_contact_jacobian_assembled_only_in_contact():
     for name in ("u", "v"):
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
         assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+
+
+def test_contact_jacobian_near_the_contact_is_the_whole_one():
+    """In contact, the force terms' Jacobian B is assembled on the facets near the
+    contact only: it equals their assembly on all of Gamma_C to the bit, and the
+    Jacobian summed from B and the constant terms equals J assembled as one form."""
+    simulation, _ = _disk_steps(105, mesh_size=2.0)
+    solver = simulation.solver
+    split = solver._split
+    split.facet_jacobian_changed()  # at the coefficients of now, near the contact
+    facets = split._facets
+    assert 0 < facets.current.sum() < len(facets.current) // 2
+    whole = split.B.duplicate()
+    whole.zeroEntries()
+    Forms(split._J_force).assemble_matrix(whole, split.bcs, 0.0)  # on every facet
+    whole.assemble()
+    assert whole.norm() > 0 and whole.equal(split.B)
+    A = solver._A
+    split.sum_into(A)
+    J = A.duplicate()
+    J.zeroEntries()
+    solver.J_forms.assemble_matrix(J, solver.bcs)
+    J.assemble()
+    J.axpy(-1.0, A)
+    assert J.norm() <= 1e-13 * A.norm()
 
 
 def test_symmetric_jacobian_factorised_by_ldlt():
