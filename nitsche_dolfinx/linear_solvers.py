@@ -169,12 +169,14 @@ class InexactSolves:
     The unpreconditioned residual r = F + J dx of a linear solve is the next Newton
     residual wherever the contact status stays: a solve stops at :attr:`safety` times
     the Newton solve's absolute tolerance (at 10^-12 of its right-hand side if that is
-    below round-off). The first solve of a Newton solve whose facet (contact) terms are
-    active stops at :attr:`forcing` times its right-hand side if the contact set moved
-    within the last Newton solve: its iterate then mostly moves the contact set, and the
-    next solve, from a residual that much smaller, ends the job. Where the set stays
-    (a step in free flight, or in steady contact) every solve is a full one, so Newton
-    takes the iterations it takes with a direct solve.
+    below round-off). A solve whose iterate will mostly move the contact set stops
+    at :attr:`forcing` times its right-hand side: the next solve, from a residual that
+    much smaller, ends the job. The last Newton solve tells which: solve k (from 0) of
+    a Newton solve with active facet (contact) terms is such a solve if the contact set
+    of the last Newton solve moved after its iterate k, and, from the second solve
+    on, the set moved at this one's iterate k too. Where the set stays (a step in free
+    flight, or in steady contact) every solve is a full one, so Newton takes the
+    iterations it takes with a direct solve.
 
     Args:
         enabled: Whether the solves are Krylov solves with these tolerances (False: a
@@ -189,9 +191,10 @@ class InexactSolves:
         self.safety = 0.1
         self.forcing = 1.0e-3
         self._full: list[bool] = []  # per linear solve of the Newton solve under way
-        #: Whether the contact set moved after the first iterate of the last Newton solve
-        #: (part of a checkpoint: a restart then solves as the uninterrupted run).
-        self.moved = False
+        #: The last iterate (from 1) of the last Newton solve at which the contact set
+        #: moved, 0 if it did not after the first iterate (part of a checkpoint: a
+        #: restart then solves as the uninterrupted run).
+        self.last_move = 0
 
     def start(self) -> None:
         """A Newton solve begins."""
@@ -200,12 +203,15 @@ class InexactSolves:
     def finish(self, jacobian_changes: list[bool]) -> None:
         """A Newton solve ended; ``jacobian_changes[k]``: whether the Jacobian at iterate
         k differed from the one before (the contact set moved)."""
-        self.moved = any(jacobian_changes[1:])
+        moves = [k for k, changed in enumerate(jacobian_changes) if k and changed]
+        self.last_move = max(moves, default=0)
 
-    def set(self, ksp, first: bool, active: bool, atol: float) -> None:
-        """Set ``ksp``'s tolerances for the solve about to start: the first of its Newton
-        solve or not, with ``active`` facet terms, Newton's absolute tolerance ``atol``."""
-        loose = self.enabled and first and active and self.moved
+    def set(self, ksp, index: int, moved: bool, active: bool, atol: float) -> None:
+        """Set ``ksp``'s tolerances for solve ``index`` (from 0) of its Newton solve, whose
+        contact set ``moved`` at this iterate, with ``active`` facet terms, Newton's
+        absolute tolerance ``atol``."""
+        expected = self.last_move > index and (index == 0 or moved)
+        loose = self.enabled and active and expected
         self._full.append(not loose)
         if self.enabled:
             ksp.setTolerances(rtol=self.forcing if loose else self.floor, atol=self.safety * atol)

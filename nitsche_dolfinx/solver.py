@@ -484,8 +484,8 @@ class SNESSolver:
         self._jacobian_changes.append(True)
         self._update_jacobian(snes, A, P)
         active = self._split is not None and not self._split.inactive
-        first = len(self._jacobian_changes) == 1
-        self.linear_tolerances.set(snes.getKSP(), first, active, self._atol)
+        index, moved = len(self._jacobian_changes) - 1, self._jacobian_changes[-1]
+        self.linear_tolerances.set(snes.getKSP(), index, moved, active, self._atol)
 
     def _update_jacobian(self, snes, A: PETSc.Mat, P: PETSc.Mat) -> None:
         """Assemble the Jacobian into A (and P) where it changed; see :meth:`_assemble_jacobian`."""

@@ -507,11 +507,13 @@ class NitscheStepper(TimeLevels):
 
     def levels(self) -> dict[str, Any]:
         """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
-        return {**super().levels(), "contact_set_moved": self.solver.linear_tolerances.moved}
+        moved = self.solver.linear_tolerances.last_move
+        return {**super().levels(), "contact_set_moved": moved}
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
-        self.solver.linear_tolerances.moved = bool(saved.get("contact_set_moved", False))
+        # (an int: the last iterate at which the set moved; a bool in older checkpoints)
+        self.solver.linear_tolerances.last_move = int(saved.get("contact_set_moved", 0))
         self._diagnostics_cache = None  # the loaded state's are computed anew
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0
