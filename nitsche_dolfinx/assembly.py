@@ -32,6 +32,7 @@ __all__ = [
     "CouplingEntries",
     "Forms",
     "add_diagonal_product",
+    "csr_pointers",
     "pattern_matrix",
     "split_cell_integrals",
 ]
@@ -124,7 +125,7 @@ class ContactFacets:
     """
 
     def __init__(self, mesh, tags, ids):
-        self._mesh, self._tags = mesh, tags
+        self._mesh = mesh
         chosen = np.isin(tags.values, np.asarray(list(ids)))
         order = np.argsort(tags.indices[chosen], kind="stable")
         self.facets = tags.indices[chosen][order].astype(np.int32)
@@ -191,6 +192,11 @@ class CouplingEntries(NamedTuple):
     columns: np.ndarray
 
 
+def csr_pointers(lengths) -> np.ndarray:
+    """CSR row pointers of rows of ``lengths`` entries (PETSc's integer type)."""
+    return np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+
+
 def pattern_matrix(entries: CouplingEntries, like: PETSc.Mat) -> PETSc.Mat:
     """A zero matrix of the type, sizes and block size of ``like`` holding ``entries``
     (for a blocked type, the whole blocks they fall in): the pattern to widen ``like`` by."""
@@ -203,8 +209,11 @@ def pattern_matrix(entries: CouplingEntries, like: PETSc.Mat) -> PETSc.Mat:
     width = sizes[1][1] // bs
     keys = np.unique(rows * width + columns)
     blocks_per_row = np.bincount(keys // width, minlength=sizes[0][0] // bs)
-    indptr = np.concatenate([[0], np.cumsum(blocks_per_row)]).astype(PETSc.IntType)
-    csr = (indptr, (keys % width).astype(PETSc.IntType), np.zeros(len(keys) * bs * bs))
+    csr = (
+        csr_pointers(blocks_per_row),
+        (keys % width).astype(PETSc.IntType),
+        np.zeros(len(keys) * bs * bs),
+    )
     matrix = PETSc.Mat()
     if bs > 1:
         matrix.createBAIJ(sizes, bs, comm=comm)
@@ -300,11 +309,6 @@ def _jacobian(form: ufl.Form, unknown, trial, degrees: dict) -> ufl.Form:
     return with_facet_quadrature(expand_derivatives(ufl.derivative(form, unknown, trial)), degrees)
 
 
-def _pointers(lengths: np.ndarray) -> np.ndarray:
-    """CSR row pointers of rows of ``lengths`` entries."""
-    return np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
-
-
 class AffineCellSplit:
     """The cell terms of an affine-in-the-bulk problem, assembled once, and the facet terms.
 
@@ -386,9 +390,7 @@ class AffineCellSplit:
         separate = bcs or self._J_constant is not self._J_cell
         self.K = self._J_cell.create_matrix(matrix_type) if separate else self.K_bc
         self._at_zero = None
-        self._B_facet_rows = None  # the local rows of B with entries
-        self._B_rows = None  # ... and those of the entries reset by sum_into
-        self._B_entry_rows = None  # the local row of each entry of B
+        self._B_rows = None  # the local rows of B with entries and of the entries reset
         self._B_hot = np.zeros(0, dtype=np.int64)  # the rows where the last sum's B is nonzero
         self._widened = False  # whether the Jacobian has entries beyond K_bc's
         self.update_K()
@@ -401,6 +403,10 @@ class AffineCellSplit:
             self.B = self.J_facet.create_matrix()
             self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
             self.B.assemble()
+            # B's sparsity is fixed: the local rows with entries, and the row of each entry
+            lengths = np.diff(self.B.getValuesCSR()[0])
+            self._B_facet_rows = np.flatnonzero(lengths > 0)
+            self._B_entry_rows = np.repeat(np.arange(len(lengths)), lengths)
         self.B_last = None
         self.activity = None
         self._activity_fresh = False  # the activity of the last facet Jacobian is known
@@ -535,9 +541,6 @@ class AffineCellSplit:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             return
         B_indptr, B_columns, B_values = self.B.getValuesCSR()
-        if self._B_entry_rows is None:
-            rows = np.arange(len(B_indptr) - 1)
-            self._B_entry_rows = np.repeat(rows, np.diff(B_indptr))
         hot = np.flatnonzero(
             np.bincount(self._B_entry_rows[B_values != 0.0], minlength=len(B_indptr) - 1)
         )
@@ -562,11 +565,11 @@ class AffineCellSplit:
             touched = np.union1d(touched, np.asarray(reset.rows) - first)
         chosen = np.searchsorted(local, touched)
         entries, lengths = _ranges(indptr, chosen)
-        A.setValuesIJV(_pointers(lengths), columns[entries], values[entries],
+        A.setValuesIJV(csr_pointers(lengths), columns[entries], values[entries],
                        PETSc.InsertMode.INSERT, rows[chosen])  # fmt: skip
         A.assemble(PETSc.Mat.AssemblyType.FLUSH)
         entries, lengths = _ranges(B_indptr, hot)
-        A.setValuesIJV(_pointers(lengths), B_columns[entries], B_values[entries],
+        A.setValuesIJV(csr_pointers(lengths), B_columns[entries], B_values[entries],
                        PETSc.InsertMode.ADD, (first + hot).astype(PETSc.IntType))  # fmt: skip
         A.assemble()
         self._B_hot = hot
@@ -576,9 +579,6 @@ class AffineCellSplit:
         row pointers, global columns, values); read again after :meth:`update_K` or when
         the rows of ``reset`` are not among them (the coupling grew onto new rows)."""
         first = self.B.getOwnershipRange()[0]
-        if self._B_facet_rows is None:
-            B_indptr = self.B.getValuesCSR()[0]
-            self._B_facet_rows = np.flatnonzero(np.diff(B_indptr) > 0)
         rows = self._B_facet_rows
         if reset is not None and len(reset.rows):
             rows = np.union1d(rows, np.asarray(reset.rows) - first)
@@ -586,8 +586,7 @@ class AffineCellSplit:
             self._B_rows = rows
             global_rows = (first + rows).astype(PETSc.IntType)
             entries = [self.K_bc.getRow(row) for row in global_rows]
-            lengths = [len(columns) for columns, _ in entries]
-            indptr = np.concatenate(([0], np.cumsum(lengths))).astype(PETSc.IntType)
+            indptr = csr_pointers([len(columns) for columns, _ in entries])
             columns = np.concatenate([c for c, _ in entries] or [[]]).astype(PETSc.IntType)
             values = np.concatenate([v for _, v in entries] or [[]])
             self._K_rows = (global_rows, indptr, columns, values)

@@ -25,7 +25,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import ContactFacets, CouplingEntries
+from .assembly import ContactFacets, CouplingEntries, csr_pointers
 
 __all__ = ["PairCoupling"]
 
@@ -260,7 +260,7 @@ class PairCoupling:
         """The coupling entries of ``mask`` on the rows that have any."""
         rows = self._rows[mask]
         present, counts = np.unique(rows, return_counts=True)
-        indptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+        indptr = csr_pointers(counts)
         columns = self._columns[mask].astype(PETSc.IntType)
         return CouplingEntries((self._offset + present).astype(PETSc.IntType), indptr, columns)
 
