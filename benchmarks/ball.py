@@ -26,6 +26,9 @@ before the impact and vibrating in flight after it, and its contact steps), each
 size serially and under ``mpirun -n 2`` in a process of its own, written to
 ``DIR/scaling.csv`` (one row per mesh size and number of ranks, a row as soon as it is
 measured) and ``DIR/scaling.png`` (time per step against DOFs, log-log). With
+``--repeat N`` each row is run N times and gives the median of each figure over the
+runs (the ratio of a contact step to a rebound step is taken in each run: the shared
+machine's load drifts between the contact steps and the rebound after them). With
 ``--vs NAME --repeat N`` it runs instead N pairs of time loops, the linear solver and
 ``NAME`` in turn, into ``DIR/versus.csv``, and prints the median ratio::
 
@@ -127,7 +130,9 @@ def measure(
 #: The columns of ``scaling.csv`` (SPEC section 8, then more): a free step has no contact
 #: force; the falling steps are the free steps before the first contact (a rigid fall,
 #: whose last acceleration is already the solution), the rebound steps those after it
-#: (the ball vibrating in flight).
+#: (the ball vibrating in flight). ``contact_over_rebound`` is the median contact step
+#: over the median rebound step of one run; with ``runs`` > 1 each column is the median
+#: of the runs' (the peak memory their largest).
 SCALING_COLUMNS = (
     "h",
     "ranks",
@@ -149,6 +154,8 @@ SCALING_COLUMNS = (
     "mesh_s",
     "setup_s",
     "linear_solver",
+    "contact_over_rebound",
+    "runs",
 )
 
 
@@ -221,6 +228,8 @@ def measure_scaling(mesh_size: float, t_end: float, linear_solver: str, scheme: 
         "mesh_s": mesh_seconds,
         "setup_s": setup_seconds,
         "linear_solver": simulation.solver_description,
+        "contact_over_rebound": median(contact) / median(~contact & (index > first)),
+        "runs": 1,
     }
 
 
@@ -237,6 +246,18 @@ def measure_row(mesh_size: float, ranks: int, linear_solver: str, args) -> dict:
     return json.loads([x for x in result.stdout.splitlines() if x[:1] == "{"][-1])
 
 
+def median_row(runs: list[dict]) -> dict:
+    """The row of several runs of the same mesh size and ranks: the median of each
+    figure over the runs (the peak memory: the largest)."""
+    row = dict(runs[0])
+    for key, value in row.items():
+        if isinstance(value, float) and key != "h":
+            row[key] = float(np.median([run[key] for run in runs]))
+    row["peak_memory_mb"] = max(run["peak_memory_mb"] for run in runs)
+    row["runs"] = len(runs)
+    return row
+
+
 def scaling(args) -> None:
     """The scaling mode: each mesh size and number of ranks in a process of its own."""
     os.makedirs(args.out, exist_ok=True)
@@ -247,7 +268,10 @@ def scaling(args) -> None:
         writer.writeheader()
         for mesh_size in args.mesh_sizes:
             for ranks in args.ranks:
-                row = measure_row(mesh_size, ranks, args.linear_solver, args)
+                runs = [measure_row(mesh_size, ranks, args.linear_solver, args)]
+                runs += [measure_row(mesh_size, ranks, args.linear_solver, args)
+                         for _ in range((args.repeat or 1) - 1)]  # fmt: skip
+                row = median_row(runs)
                 rows.append(row)
                 writer.writerow(row)
                 handle.flush()
@@ -270,7 +294,7 @@ def versus(args) -> None:
         for mesh_size in args.mesh_sizes:
             for ranks in args.ranks:
                 ratios = []
-                for pair in range(args.repeat):
+                for pair in range(args.repeat or 5):
                     a = measure_row(mesh_size, ranks, args.linear_solver, args)
                     b = measure_row(mesh_size, ranks, args.vs, args)
                     ratios.append(a["loop_s"] / b["loop_s"])
@@ -373,7 +397,12 @@ def main() -> None:
         choices=[*LINEAR_SOLVERS, "lu-petsc"],
         help="with --out: time loops against this linear solver, run in turn (versus.csv)",
     )
-    parser.add_argument("--repeat", type=int, default=5, help="with --vs: pairs of runs")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        help="with --vs: pairs of runs (5); else in the scaling mode: runs of each row (1), "
+        "the row giving the median of each figure over them",
+    )
     parser.add_argument("--scaling-row", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--all", action="store_true", help="serial and mpirun -n 2, one table")
     parser.add_argument(

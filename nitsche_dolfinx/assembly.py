@@ -391,7 +391,6 @@ class AffineCellSplit:
         self.K = self._J_cell.create_matrix(matrix_type) if separate else self.K_bc
         self._at_zero = None
         self._B_rows = None  # the local rows of B with entries and of the entries reset
-        self._B_hot = np.zeros(0, dtype=np.int64)  # the rows where the last sum's B is nonzero
         self._widened = False  # whether the Jacobian has entries beyond K_bc's
         self.update_K()
         if state:
@@ -399,15 +398,14 @@ class AffineCellSplit:
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
         self.B = None
-        if self.J_facet is not None:  # its entries: all of the facets' (see K_bc)
-            self.B = self.J_facet.create_matrix()
-            self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
-            self.B.assemble()
-            # B's sparsity is fixed: the local rows with entries, and the row of each entry
-            lengths = np.diff(self.B.getValuesCSR()[0])
-            self._B_facet_rows = np.flatnonzero(lengths > 0)
-            self._B_entry_rows = np.repeat(np.arange(len(lengths)), lengths)
-        self.B_last = None
+        self._B_known = False  # whether B holds a facet Jacobian to compare the next with
+        self._B_nonzero = None  # the nonzero entries of that Jacobian (_nonzero_entries)
+        self._in_A = None  # B's values in the matrix of the last sum (None: another B's)
+        self._stale = np.zeros(0, dtype=np.int64)  # rows of A holding values of a former B
+        if self.J_facet is not None:
+            self._make_B()
+            # the rows where B can have entries, on any of the facets
+            self._B_facet_rows = np.flatnonzero(np.diff(self._B_indptr) > 0)
         self.activity = None
         self._activity_fresh = False  # the activity of the last facet Jacobian is known
         if activity is not None and self.J_facet is not None:
@@ -416,7 +414,7 @@ class AffineCellSplit:
             space = activity.arguments()[0].ufl_function_space()
             self._activity = compat.create_vector(space)
             self._activity_dofs = compat.dofmap_array(space)[:, 0]  # a value per cell
-        self._inactive = False  # whether B_last was assembled with the facet terms inactive
+        self._inactive = False  # whether B was assembled with the facet terms inactive
         self.assemblies = 0  # of the facet Jacobian
 
     def update_K(self) -> None:
@@ -498,99 +496,145 @@ class AffineCellSplit:
         """Assemble the facet Jacobian (unless it is inactive now and was at the last
         assembly, and ``skip_inactive``); True if it differs from the last one."""
         if self.B is None:  # no facet terms: the Jacobian never changes
-            first, self.B_last = self.B_last is None, True
+            first, self._B_known = not self._B_known, True
             return first
         self._activity_fresh = False
         inactive = skip_inactive and self.facet_terms_inactive()
-        if inactive and self._inactive and self.B_last is not None:
+        if inactive and self._inactive and self._B_known:
             return False  # inactive now and at the last assembly: the same Jacobian
         self._inactive = inactive
         self.assemblies += 1
-        if self._facets is not None:
-            self._restrict()
-        self.B.zeroEntries()
+        if self._facets is None or not self._restrict():  # (else B is made, assembled)
+            self.B.zeroEntries()
+            self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
+            self.B.assemble()
+            self._B_values = self.B.getValuesCSR()[2]
+        nonzero = self._nonzero_entries()
+        same = self._B_known and all(map(np.array_equal, nonzero, self._B_nonzero))
+        self._B_nonzero, self._B_known = nonzero, True
+        return self.B.getComm().tompi4py().allreduce(not same, op=MPI.LOR)
+
+    def _make_B(self) -> None:
+        """Make B on the sparsity of the facet terms now compiled, assembled, with its
+        CSR structure and the row of each entry; its values are read after each assembly."""
+        if self.B is not None:  # the rows of A holding its values are set again
+            self._stale = np.union1d(self._stale, self._rows_in_A())
+            self.B.destroy()
+        self._in_A = None
+        self.B = self.J_facet.create_matrix()
         self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
-        if self.B_last is not None and self.B.equal(self.B_last):
-            return False
-        if self.B_last is None:
-            self.B_last = self.B.copy()
-        else:
-            self.B.copy(self.B_last, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        return True
+        self._B_indptr, self._B_columns, self._B_values = self.B.getValuesCSR()
+        lengths = np.diff(self._B_indptr)
+        self._B_entry_rows = np.repeat(np.arange(len(lengths)), lengths)
+        self._B_in_K = None  # see _rows_of_K
 
-    def _restrict(self) -> None:
+    def _nonzero_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """B's nonzero entries: their local rows and global columns (together, their
+        place whatever B's sparsity), and their values."""
+        nonzero = self._B_values != 0.0
+        width = np.int64(self.B.getSize()[1])
+        keys = self._B_entry_rows[nonzero] * width + self._B_columns[nonzero]
+        return keys, self._B_values[nonzero]
+
+    def _rows_in_A(self) -> np.ndarray:
+        """The local rows where the matrix of the last sum holds nonzero values of B."""
+        if self._in_A is None:
+            return np.zeros(0, dtype=np.int64)
+        return np.unique(self._B_entry_rows[self._in_A != 0.0])
+
+    def forget_facet_jacobian(self) -> None:
+        """Make the next :meth:`facet_jacobian_changed` assemble B and report a change."""
+        self._B_known = False
+
+    def _restrict(self) -> bool:
         """Compile B's form again on the facets near the contact of the iterate when the
-        contact has moved beyond them or left most of them (collective: FFCx's cache
-        is read by every rank)."""
+        contact has moved beyond them or left most of them, and make B on them, assembled
+        at the iterate; True if so (collective: FFCx's cache is read by every rank)."""
         if not self._activity_fresh:
             self.facet_terms_inactive()
         changed = self._facets.update(self.active_cells())
         if self.B.getComm().tompi4py().allreduce(changed, op=MPI.LOR):
             self.J_facet = Forms(self._facets.restrict(self._J_force))
+            self._make_B()  # on their sparsity: its work scales with them
+            return True
+        return False
 
     def sum_into(self, A: PETSc.Mat, reset: CouplingEntries | None = None) -> None:
         """A = K_bc + B, A on the sparsity of K_bc (which holds B's) or a wider one
-        (:meth:`widen`). In full the first time after :meth:`update_K`; then only on the
-        rows where B is nonzero now or was at the last sum, set back to K_bc's values
-        before B's are added (the other rows hold K_bc's). ``reset``: entries where terms
-        are added to A after this sum (the coupling between two bodies), set back to zero
-        first, their rows with the others. The same sums in the same order, so the same
-        values to the bit as a sum in full."""
+        (:meth:`widen`). In full the first time after :meth:`update_K`; then only the
+        rows where B differs from the B of the last sum are set again, to K_bc's values
+        plus B's (the other rows hold them already). ``reset``: entries where terms are
+        added to A after this sum (the coupling between two bodies), set back to zero
+        first, their rows set again with the others. Each entry is K_bc's value plus
+        B's, so the same to the bit as a sum in full."""
         if self.B is None:
             self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             return
-        B_indptr, B_columns, B_values = self.B.getValuesCSR()
-        hot = np.flatnonzero(
-            np.bincount(self._B_entry_rows[B_values != 0.0], minlength=len(B_indptr) - 1)
-        )
+        values = self._B_values
         if self._summed_into != A.handle:  # (petsc4py wraps A anew at each callback)
+            self._stale = np.zeros(0, dtype=np.int64)
             if self._widened:  # A has entries beyond K_bc's: zero there
                 A.zeroEntries()
                 A.axpy(1.0, self.K_bc, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             else:
                 self.K_bc.copy(A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             A.axpy(1.0, self.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-            self._summed_into, self._B_hot = A.handle, hot
+            self._summed_into, self._in_A = A.handle, values
             return
         if reset is not None and len(reset.columns):
             zeros = np.zeros(len(reset.columns))
             A.setValuesIJV(reset.indptr, reset.columns, zeros, PETSc.InsertMode.INSERT,
                            reset.rows)  # fmt: skip
         first = self.B.getOwnershipRange()[0]
-        rows, indptr, columns, values = self._rows_of_K(reset)
-        local = rows - first
-        touched = np.union1d(hot, self._B_hot)
+        rows, indptr, columns, K_values, B_in_K = self._rows_of_K(reset)
+        if self._in_A is None:  # B was made again since: its rows and those of the former
+            changed = np.union1d(np.unique(self._B_entry_rows[values != 0.0]), self._stale)
+        else:
+            changed = np.unique(self._B_entry_rows[values != self._in_A])
         if reset is not None and len(reset.rows):
-            touched = np.union1d(touched, np.asarray(reset.rows) - first)
-        chosen = np.searchsorted(local, touched)
+            changed = np.union1d(changed, np.asarray(reset.rows) - first)
+        chosen = np.searchsorted(rows - first, changed)
         entries, lengths = _ranges(indptr, chosen)
-        A.setValuesIJV(csr_pointers(lengths), columns[entries], values[entries],
+        summed = K_values[entries]
+        B_entries, B_lengths = _ranges(self._B_indptr, changed)
+        place = np.cumsum(lengths) - lengths - indptr[chosen]  # in summed, less the K entry
+        summed[B_in_K[B_entries] + np.repeat(place, B_lengths)] += values[B_entries]
+        A.setValuesIJV(csr_pointers(lengths), columns[entries], summed,
                        PETSc.InsertMode.INSERT, rows[chosen])  # fmt: skip
-        A.assemble(PETSc.Mat.AssemblyType.FLUSH)
-        entries, lengths = _ranges(B_indptr, hot)
-        A.setValuesIJV(csr_pointers(lengths), B_columns[entries], B_values[entries],
-                       PETSc.InsertMode.ADD, (first + hot).astype(PETSc.IntType))  # fmt: skip
         A.assemble()
-        self._B_hot = hot
+        self._in_A, self._stale = values, np.zeros(0, dtype=np.int64)
 
     def _rows_of_K(self, reset: CouplingEntries | None):
-        """The rows of K_bc where B has entries or ``reset`` has, in CSR form: (global rows,
-        row pointers, global columns, values); read again after :meth:`update_K` or when
-        the rows of ``reset`` are not among them (the coupling grew onto new rows)."""
+        """The rows of K_bc where B can have entries (on any facet) or ``reset`` has, in
+        CSR form, with the place of each of B's entries among them: (global rows, row
+        pointers, global columns, values, places). The rows are read again after
+        :meth:`update_K` or when those of ``reset`` are not among them (the coupling grew
+        onto new rows), the places when B is made again."""
         first = self.B.getOwnershipRange()[0]
         rows = self._B_facet_rows
         if reset is not None and len(reset.rows):
             rows = np.union1d(rows, np.asarray(reset.rows) - first)
+        width = np.int64(self.B.getSize()[1])
         if self._K_rows is None or not np.isin(rows, self._B_rows).all():
             self._B_rows = rows
             global_rows = (first + rows).astype(PETSc.IntType)
             entries = [self.K_bc.getRow(row) for row in global_rows]
-            indptr = csr_pointers([len(columns) for columns, _ in entries])
+            lengths = [len(columns) for columns, _ in entries]
             columns = np.concatenate([c for c, _ in entries] or [[]]).astype(PETSc.IntType)
             values = np.concatenate([v for _, v in entries] or [[]])
-            self._K_rows = (global_rows, indptr, columns, values)
-        return self._K_rows
+            keys = np.repeat(np.arange(len(rows), dtype=np.int64), lengths) * width + columns
+            self._K_rows = (global_rows, csr_pointers(lengths), columns, values, keys)
+            self._B_in_K = None
+        global_rows, indptr, columns, values, keys = self._K_rows
+        if self._B_in_K is None:
+            # B's sparsity is within K_bc's, the columns of each row sorted: find each of
+            # B's entries by its (row, column) key among those of these rows
+            B_keys = np.searchsorted(self._B_rows, self._B_entry_rows) * width + self._B_columns
+            self._B_in_K = np.searchsorted(keys, B_keys)
+            if not np.array_equal(keys[np.minimum(self._B_in_K, len(keys) - 1)], B_keys):
+                raise RuntimeError("the facet Jacobian has entries beyond the sparsity of K_bc")
+        return global_rows, indptr, columns, values, self._B_in_K
 
     def widen(self) -> None:
         """Say that the Jacobian A now has entries beyond the sparsity of K_bc (the
@@ -601,7 +645,8 @@ class AffineCellSplit:
         objects = [self.K_bc, self.F0, self._Kx]
         if self.K is not self.K_bc:
             objects.append(self.K)
-        objects += [m for m in (self.B, self.B_last) if isinstance(m, PETSc.Mat)]
+        if self.B is not None:
+            objects.append(self.B)
         if self._at_zero is not None:
             objects += self._at_zero.petsc_objects()
         if self.activity is not None:

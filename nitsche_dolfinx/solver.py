@@ -620,7 +620,7 @@ class SNESSolver:
     def _factorise_at_next_jacobian(self) -> None:
         """Make the next Jacobian evaluation sum K_bc + B and factorise it (also when
         lagging), whether or not the contact part changed."""
-        self._split.B_last = None
+        self._split.forget_facet_jacobian()
         self._refresh_preconditioner = True
 
     @contextlib.contextmanager

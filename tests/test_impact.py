@@ -5,6 +5,7 @@ import os
 import numpy as np
 import pytest
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, compat
 from nitsche_dolfinx.assembly import Forms
@@ -122,6 +123,30 @@ def test_contact_jacobian_assembled_only_in_contact():
     for name in ("u", "v"):
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
         assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+
+
+@pytest.mark.mpi
+def test_jacobian_rows_set_again_are_the_sum_in_full():
+    """After a sum in full, only the rows of the Jacobian where B changed are set again,
+    also when B is made again on other facets (the contact growing, shrinking, ending):
+    at every Newton iterate the Jacobian is K_bc + B summed in full, to the bit."""
+    problem = impact_problem(dim=2, mesh_size=2.0)
+    simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=29.0)
+    while simulation.t < 24.95:
+        simulation.step()
+    solver = simulation.solver
+    split, checks = solver._split, []
+
+    def check(snes, iteration, norm):  # A and B: those of the last Jacobian evaluation
+        summed = split.K_bc.copy()
+        summed.axpy(1.0, split.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        checks.append(summed.equal(solver._A))
+        summed.destroy()
+
+    solver.snes.setMonitor(check)
+    simulation.run()  # the contact ends at t ~ 27.8
+    assert simulation.state()["contact_force"] == 0.0
+    assert len(checks) > 40 and all(checks)
 
 
 def test_contact_jacobian_near_the_contact_is_the_whole_one():
