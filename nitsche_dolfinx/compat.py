@@ -358,18 +358,35 @@ def expression(ufl_expression, V) -> fem.Expression:
 # -- gmsh and XDMF ---------------------------------------------------------------------
 
 
-def gmsh_model_to_mesh(model, comm, rank: int, gdim: int):
-    """Convert a gmsh model into ``(mesh, cell_tags, facet_tags)``.
+def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
+    """Convert a gmsh model into ``(mesh, cell_tags, facet_tags)``, the cells sent to
+    the ranks by ``partitioner`` if given (no ghost cells), else by dolfinx's default.
 
     ``dolfinx.io.gmshio.model_to_mesh`` returns a tuple up to 0.9;
-    ``dolfinx.io.gmsh.model_to_mesh`` returns a named tuple from 0.10.
+    ``dolfinx.io.gmsh.model_to_mesh`` returns a named tuple from 0.10. In 0.5 it takes
+    no partitioner: its call of ``create_mesh`` is given one for the time of the call.
     """
     import dolfinx.io
+    import dolfinx.mesh
 
     module = getattr(dolfinx.io, "gmsh", None)
     if module is None or not hasattr(module, "model_to_mesh"):
         module = _import_gmshio()
-    result = module.model_to_mesh(model, comm, rank, gdim=gdim)
+    if partitioner is None:
+        result = module.model_to_mesh(model, comm, rank, gdim=gdim)
+    elif "partitioner" in inspect.signature(module.model_to_mesh).parameters:
+        result = module.model_to_mesh(model, comm, rank, gdim=gdim, partitioner=partitioner)
+    else:  # 0.5
+        create_mesh = module.create_mesh
+
+        def partitioned(comm, cells, x, domain):
+            return create_mesh(comm, cells, x, domain, dolfinx.mesh.GhostMode.none, partitioner)
+
+        module.create_mesh = partitioned
+        try:
+            result = module.model_to_mesh(model, comm, rank, gdim=gdim)
+        finally:
+            module.create_mesh = create_mesh
     if hasattr(result, "mesh"):
         return result.mesh, result.cell_tags, result.facet_tags
     return result[0], result[1], result[2]

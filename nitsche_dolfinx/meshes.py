@@ -23,6 +23,7 @@ __all__ = [
     "bar_mesh",
     "block_mesh",
     "cell_diameter",
+    "contact_bisection",
     "facet_cells",
     "facet_vertices",
     "load_mesh",
@@ -46,6 +47,89 @@ BAR_CONTACT = 1
 BAR_CLAMPED = 2
 #: Facet tag of :func:`block_mesh`: its bottom y = 0.
 BLOCK_CONTACT = 1
+
+
+def contact_bisection(x: np.ndarray, contact: np.ndarray, num_vertices: int):
+    """A cell partitioner for ``dolfinx.mesh.create_mesh`` that spreads the contact
+    boundary over the ranks: recursive coordinate bisection of the cells by their
+    centroids, each cut across the direction in which the contact nodes of the part
+    extend most (the cells' own extent where it holds none), at the median that gives
+    each side cells in proportion to its ranks. The default graph partition often
+    leaves the whole contact zone on one rank, whose contact work the others then
+    wait for (docs/method.md section 8).
+
+    Args:
+        x: The nodes, by input index (num_nodes, 3); the rows that the partitioner's
+            cells index. Empty on ranks that give no cells.
+        contact: The coordinates of the nodes of the contact boundary (n, 3).
+        num_vertices: The vertices of a cell.
+    """
+    import dolfinx.cpp
+
+    def partition(comm, parts, *args):
+        # 0.5: (tdim, cells as an adjacency list, ghost mode); 0.9 on: (cell types,
+        # cells as an array per cell type)
+        cells = next(a for a in args if hasattr(a, "array") or _arrays(a))
+        legacy = hasattr(cells, "array")
+        if legacy:
+            cells = cells.array
+        else:
+            cells = np.concatenate([np.asarray(c).ravel() for c in cells])
+        vertices = np.asarray(cells, dtype=np.int64).reshape(-1, num_vertices)
+        owners = np.zeros(len(vertices), dtype=np.int32)
+        if len(vertices):
+            centroids = x[vertices].mean(axis=1)
+            _bisect(centroids, contact, np.arange(len(vertices)), 0, parts, owners)
+        if legacy:
+            return _with_sharing_ranks(vertices, owners, parts)
+        offsets = np.arange(len(vertices) + 1, dtype=np.int32)
+        return dolfinx.cpp.graph.AdjacencyList_int32(owners, offsets)
+
+    return partition
+
+
+def _with_sharing_ranks(vertices: np.ndarray, owners: np.ndarray, parts: int):
+    """The destinations of cells given to ``owners`` for dolfinx 0.5, which finds the
+    vertices shared between ranks through ghost cells (dropped afterwards with
+    GhostMode.none): each cell's owner, then the other ranks owning a cell that has one
+    of its vertices."""
+    import dolfinx.cpp
+
+    holds = np.zeros((vertices.max(initial=-1) + 1, parts), dtype=bool)
+    holds[vertices, owners[:, None]] = True
+    sharing = holds[vertices].any(axis=1)  # (cells, parts)
+    sharing[np.arange(len(owners)), owners] = False
+    cells, ranks = np.nonzero(sharing)  # by cell, then by rank
+    others = np.bincount(cells, minlength=len(owners))
+    offsets = np.concatenate(([0], np.cumsum(1 + others))).astype(np.int32)
+    destinations = np.empty(offsets[-1], dtype=np.int32)
+    destinations[offsets[:-1]] = owners
+    first = np.concatenate(([0], np.cumsum(others)[:-1]))  # of each cell's, in ``cells``
+    destinations[offsets[cells] + 1 + np.arange(len(cells)) - first[cells]] = ranks
+    return dolfinx.cpp.graph.AdjacencyList_int32(destinations, offsets)
+
+
+def _arrays(value) -> bool:
+    """Whether ``value`` is a non-empty list of arrays."""
+    listed = isinstance(value, (list, tuple)) and len(value) > 0
+    return listed and all(hasattr(v, "shape") for v in value)
+
+
+def _bisect(centroids, contact, cells, first: int, parts: int, destinations) -> None:
+    """Give ``cells`` to ranks ``first`` to ``first + parts - 1`` (see contact_bisection)."""
+    if parts == 1:
+        destinations[cells] = first
+        return
+    points = centroids[cells]
+    low, high = points.min(axis=0), points.max(axis=0)
+    inside = contact[np.all((contact >= low) & (contact <= high), axis=1)]
+    spread = inside if len(inside) > 1 else points
+    axis = int(np.argmax(spread.max(axis=0) - spread.min(axis=0)))
+    order = cells[np.argsort(points[:, axis], kind="stable")]
+    left = parts // 2
+    cut = len(cells) * left // parts
+    _bisect(centroids, contact, order[:cut], first, left, destinations)
+    _bisect(centroids, contact, order[cut:], first + left, parts - left, destinations)
 
 
 def cell_diameter(mesh) -> fem.Function:

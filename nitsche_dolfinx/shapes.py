@@ -19,6 +19,7 @@ import math
 import os
 from collections.abc import Callable, Sequence
 
+import numpy as np
 from mpi4py import MPI
 
 __all__ = [
@@ -212,9 +213,12 @@ def _add_groups(gmsh, groups) -> None:
         gmsh.model.setPhysicalName(dim, tag, name)
 
 
-def _to_dolfinx(build: Callable[..., None], gdim: int, comm, **kwargs):
-    """Build the model on rank 0 and distribute it over ``comm``: ``(mesh, facet_tags)``."""
+def _to_dolfinx(build: Callable[..., None], gdim: int, comm, contact: int, **kwargs):
+    """Build the model on rank 0 and distribute it over ``comm``, the facets tagged
+    ``contact`` spread over the ranks (:func:`~nitsche_dolfinx.meshes.contact_bisection`):
+    ``(mesh, facet_tags)``."""
     from . import compat
+    from .meshes import contact_bisection
 
     with gmsh_session() as gmsh:
         error = None
@@ -226,7 +230,16 @@ def _to_dolfinx(build: Callable[..., None], gdim: int, comm, **kwargs):
         error = comm.bcast(error, root=0)
         if error is not None:
             raise error
-        mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim)
+        partitioner = None
+        if comm.size > 1:
+            x, nodes = np.zeros((0, 3)), np.zeros((0, 3))
+            if comm.rank == 0:  # the nodes by input index: gmsh's tags from 1
+                tags, coordinates, _ = gmsh.model.mesh.getNodes()
+                x = coordinates.reshape(-1, 3)[np.argsort(tags)]
+                nodes = gmsh.model.mesh.getNodesForPhysicalGroup(gdim - 1, contact)[1]
+                nodes = nodes.reshape(-1, 3)
+            partitioner = contact_bisection(x, nodes, gdim + 1)  # simplices
+        mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim, partitioner)
     return mesh, facet_tags
 
 
@@ -239,7 +252,9 @@ def ball_mesh(
 ):
     """The ball of the 3D impact test as a dolfinx mesh of tetrahedra.
 
-    Meshed on rank 0 by :func:`build_ball_model` and distributed over ``comm``.
+    Meshed on rank 0 by :func:`build_ball_model` and distributed over ``comm``, the
+    contact boundary spread over the ranks
+    (:func:`~nitsche_dolfinx.meshes.contact_bisection`).
     The defaults are the talk's ball (radius 20, centre (0, 0, 20), h about 8,
     a few hundred second-order tetrahedra).
 
@@ -261,6 +276,7 @@ def ball_mesh(
         build_ball_model,
         3,
         comm,
+        BALL_CONTACT,
         mesh_size=mesh_size,
         order=order,
         radius=radius,
@@ -277,7 +293,9 @@ def disk_mesh(
 ):
     """The disk of the 2D impact test as a dolfinx mesh of triangles (gdim = 2).
 
-    Meshed on rank 0 by :func:`build_disk_model` and distributed over ``comm``.
+    Meshed on rank 0 by :func:`build_disk_model` and distributed over ``comm``, the
+    contact boundary spread over the ranks
+    (:func:`~nitsche_dolfinx.meshes.contact_bisection`).
 
     Args:
         mesh_size: Target edge length of the triangles.
@@ -297,6 +315,7 @@ def disk_mesh(
         build_disk_model,
         2,
         comm,
+        DISK_CONTACT,
         mesh_size=mesh_size,
         order=order,
         radius=radius,
