@@ -336,7 +336,7 @@ class AffineCellSplit:
         activity: The facet activity of :class:`~nitsche_dolfinx.solver.SNESSolver`.
         unknown, state: With ``state`` (Functions in which the cell terms are affine),
             F_cell(0) by :class:`CellResidualAtZero`; else by a cell assembly.
-        matrix_type: The PETSc type of K and K_bc (None: AIJ).
+        matrix_type: The PETSc type of K, K_bc and B (None: AIJ).
         facet_parts: With ``activity`` and ``unknown``: (affine part, force part) of the
             facet terms of F, whose sum they are.
     """
@@ -383,6 +383,7 @@ class AffineCellSplit:
         self._constants_key = None
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
         # a new matrix, so J is assembled once to set them (and zeroed by update_K)
+        self._matrix_type = matrix_type  # of B too: blocked insertion is faster
         self.K_bc = J_forms.create_matrix(matrix_type)
         J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
@@ -399,7 +400,7 @@ class AffineCellSplit:
         self._Kx = self.F0.duplicate()
         self.B = None
         self._B_known = False  # whether B holds a facet Jacobian to compare the next with
-        self._B_nonzero = None  # the nonzero entries of that Jacobian (_nonzero_entries)
+        self._former = None  # the nonzero entries of that Jacobian if B was made since
         self._in_A = None  # B's values in the matrix of the last sum (None: another B's)
         self._stale = np.zeros(0, dtype=np.int64)  # rows of A holding values of a former B
         if self.J_facet is not None:
@@ -504,14 +505,17 @@ class AffineCellSplit:
             return False  # inactive now and at the last assembly: the same Jacobian
         self._inactive = inactive
         self.assemblies += 1
+        before = self._B_values
         if self._facets is None or not self._restrict():  # (else B is made, assembled)
             self.B.zeroEntries()
             self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
             self.B.assemble()
             self._B_values = self.B.getValuesCSR()[2]
-        nonzero = self._nonzero_entries()
-        same = self._B_known and all(map(np.array_equal, nonzero, self._B_nonzero))
-        self._B_nonzero, self._B_known = nonzero, True
+        if self._former is None:  # the same sparsity: the same values
+            same = self._B_known and np.array_equal(self._B_values, before)
+        else:  # the nonzero entries in the same places, with the same values
+            same = self._B_known and all(map(np.array_equal, self._nonzero_entries(), self._former))
+        self._former, self._B_known = None, True
         return self.B.getComm().tompi4py().allreduce(not same, op=MPI.LOR)
 
     def _make_B(self) -> None:
@@ -519,9 +523,10 @@ class AffineCellSplit:
         CSR structure and the row of each entry; its values are read after each assembly."""
         if self.B is not None:  # the rows of A holding its values are set again
             self._stale = np.union1d(self._stale, self._rows_in_A())
+            self._former = self._nonzero_entries()  # to compare the next B with
             self.B.destroy()
         self._in_A = None
-        self.B = self.J_facet.create_matrix()
+        self.B = self.J_facet.create_matrix(self._matrix_type)
         self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
         self._B_indptr, self._B_columns, self._B_values = self.B.getValuesCSR()
@@ -541,7 +546,11 @@ class AffineCellSplit:
         """The local rows where the matrix of the last sum holds nonzero values of B."""
         if self._in_A is None:
             return np.zeros(0, dtype=np.int64)
-        return np.unique(self._B_entry_rows[self._in_A != 0.0])
+        return self._nonzero_rows(self._in_A)
+
+    def _nonzero_rows(self, values: np.ndarray) -> np.ndarray:
+        """The local rows of B where ``values`` (of B's entries) are nonzero."""
+        return np.unique(self._B_entry_rows[values != 0.0])
 
     def forget_facet_jacobian(self) -> None:
         """Make the next :meth:`facet_jacobian_changed` assemble B and report a change."""
@@ -589,7 +598,7 @@ class AffineCellSplit:
         first = self.B.getOwnershipRange()[0]
         rows, indptr, columns, K_values, B_in_K = self._rows_of_K(reset)
         if self._in_A is None:  # B was made again since: its rows and those of the former
-            changed = np.union1d(np.unique(self._B_entry_rows[values != 0.0]), self._stale)
+            changed = np.union1d(self._nonzero_rows(values), self._stale)
         else:
             changed = np.unique(self._B_entry_rows[values != self._in_A])
         if reset is not None and len(reset.rows):
@@ -616,7 +625,10 @@ class AffineCellSplit:
         if reset is not None and len(reset.rows):
             rows = np.union1d(rows, np.asarray(reset.rows) - first)
         width = np.int64(self.B.getSize()[1])
-        if self._K_rows is None or not np.isin(rows, self._B_rows).all():
+        known = self._K_rows is not None and (
+            rows is self._B_rows or np.isin(rows, self._B_rows).all()
+        )
+        if not known:
             self._B_rows = rows
             global_rows = (first + rows).astype(PETSc.IntType)
             entries = [self.K_bc.getRow(row) for row in global_rows]
