@@ -381,9 +381,9 @@ class AffineCellSplit:
         self.J_facet = Forms(J_facet) if J_facet is not None else None
         self._constants = constant.constants()  # those of K_bc: see constants_changed
         self._constants_key = None
+        self._matrix_type = matrix_type  # of B too: blocked insertion is faster
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
         # a new matrix, so J is assembled once to set them (and zeroed by update_K)
-        self._matrix_type = matrix_type  # of B too: blocked insertion is faster
         self.K_bc = J_forms.create_matrix(matrix_type)
         J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
