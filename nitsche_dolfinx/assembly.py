@@ -52,8 +52,15 @@ def split_cell_integrals(form: ufl.Form) -> tuple[ufl.Form | None, ufl.Form | No
 class Forms:
     """A UFL form compiled once, with the assembly operations the solver applies to it."""
 
-    def __init__(self, form: ufl.Form):
-        self.form = fem.form(form)
+    def __init__(self, form: ufl.Form, compiled=None):
+        self.ufl = form
+        self.form = fem.form(form) if compiled is None else compiled
+
+    def on_facets(self, facets: np.ndarray, ids: np.ndarray) -> Forms:
+        """The form, whose integrals are exterior facet integrals, on the facets ``facets``
+        (sorted) with the subdomain ids ``ids`` instead: its compiled kernels are used
+        again (:func:`~nitsche_dolfinx.compat.form_on_facets`)."""
+        return Forms(self.ufl, compat.form_on_facets(self.form, self.ufl, facets, ids))
 
     def assemble_vector(self, b: PETSc.Vec) -> None:
         """Add the form to the (local form of the) vector ``b``."""
@@ -133,6 +140,7 @@ class ContactFacets:
         self._cells = facet_cells(mesh, self.facets)
         self._vertices = facet_vertices(mesh, self.facets)
         self.current = np.ones(len(self.facets), dtype=bool)
+        self.needed = None  # the facets of the cells in contact at the last update
 
     @classmethod
     def of_measure(cls, mesh, ds) -> ContactFacets:
@@ -156,7 +164,7 @@ class ContactFacets:
     def update(self, active_cells: np.ndarray) -> bool:
         """Take the facets of ``active_cells`` and their neighbours when the contact has
         left the current ones, or uses few of them; True if the set changed."""
-        needed = active_cells[self._cells]
+        needed = self.needed = active_cells[self._cells]
         marked = np.zeros(self._vertices.max(initial=-1) + 1, dtype=bool)
         marked[self._vertices[needed].ravel()] = True
         wanted = marked[self._vertices].any(axis=1) if len(self._vertices) else needed
@@ -181,6 +189,11 @@ class ContactFacets:
             for integral in form.integrals()
         ]
         return ufl.Form(integrals)
+
+    def compiled_on(self, forms: Forms, chosen: np.ndarray) -> Forms:
+        """``forms``, compiled on all the facets, on the facets ``chosen`` (a mask, such as
+        :attr:`current` or :attr:`needed`): no compilation."""
+        return forms.on_facets(self.facets[chosen], self._values[chosen])
 
 
 class CouplingEntries(NamedTuple):
@@ -323,9 +336,10 @@ class AffineCellSplit:
     With ``facet_parts`` (docs/method.md section 8), the facet terms of F are the sum of
     an affine part, whose constant Jacobian joins K_bc, and a part that vanishes with its
     Jacobian wherever ``activity`` is zero (the contact force terms): B is then that
-    part's Jacobian alone, assembled on the facets of the cells in contact and a ring of
-    neighbours (:class:`ContactFacets`), and each sum sets back only the rows where B
-    is nonzero now or was at the last sum.
+    part's Jacobian alone, on the sparsity of the facets of the cells in contact and a
+    ring of neighbours (:class:`ContactFacets`), assembled on those of the cells in
+    contact, and each sum sets back only the rows where B is nonzero now or was at the
+    last sum.
 
     Args:
         F, J: The residual and its Jacobian (UFL forms).
@@ -366,7 +380,6 @@ class AffineCellSplit:
         self._J_constant = self._J_cell  # the constant terms of J (K_bc)
         constant = J_cell
         self._facets = None  # the ContactFacets that B is assembled on (None: all)
-        self._J_force = None  # the UFL form of B when restricted to them
         degrees = None
         if facet_parts is not None and J_facet is not None and activity is not None:
             degrees = facet_quadrature_degrees(J_facet)
@@ -375,10 +388,11 @@ class AffineCellSplit:
             if not affine.empty():
                 constant = J_cell + affine
                 self._J_constant = Forms(constant)
-            self._J_force = force
             self._facets = ContactFacets.of_form(unknown.function_space.mesh, force)
             J_facet = force
         self.J_facet = Forms(J_facet) if J_facet is not None else None
+        self._J_all = self.J_facet  # on all the facets: B's sparsity comes from J_facet
+        self._on_needed = None  # (facets, J_facet on them) of the last assembly of B
         self._constants = constant.constants()  # those of K_bc: see constants_changed
         self._constants_key = None
         self._matrix_type = matrix_type  # of B too: blocked insertion is faster
@@ -508,7 +522,7 @@ class AffineCellSplit:
         before = self._B_values
         if self._facets is None or not self._restrict():  # (else B is made, assembled)
             self.B.zeroEntries()
-            self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
+            self._facet_terms().assemble_matrix(self.B, self.bcs, 0.0)
             self.B.assemble()
             self._B_values = self.B.getValuesCSR()[2]
         if self._former is None:  # the same sparsity: the same values
@@ -527,12 +541,20 @@ class AffineCellSplit:
             self.B.destroy()
         self._in_A = None
         self.B = self.J_facet.create_matrix(self._matrix_type)
+        # on all of J_facet's facets: PETSc keeps only the entries assembled into a new B
         self.J_facet.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
         self._B_indptr, self._B_columns, self._B_values = self.B.getValuesCSR()
         lengths = np.diff(self._B_indptr)
         self._B_entry_rows = np.repeat(np.arange(len(lengths)), lengths)
         self._B_in_K = None  # see _rows_of_K
+
+    def _facet_terms(self) -> Forms:
+        """The facet Jacobian on the facets of the cells in contact at the iterate (taken
+        by :meth:`_restrict`; J_facet before it): the force terms are zero on the others,
+        so B gets the values it gets on all of J_facet's facets, to the bit (its sums lack
+        only zeros), for a fraction of the work."""
+        return self.J_facet if self._on_needed is None else self._on_needed[1]
 
     def _nonzero_entries(self) -> tuple[np.ndarray, np.ndarray]:
         """B's nonzero entries: their local rows and global columns (together, their
@@ -557,14 +579,22 @@ class AffineCellSplit:
         self._B_known = False
 
     def _restrict(self) -> bool:
-        """Compile B's form again on the facets near the contact of the iterate when the
-        contact has moved beyond them or left most of them, and make B on them, assembled
-        at the iterate; True if so (collective: FFCx's cache is read by every rank)."""
+        """Take the facets near the contact of the iterate for B's form when the contact
+        has moved beyond its facets or left most of them, and make B on them, assembled
+        at the iterate; True if so. Take the facets of the cells in contact for its
+        assembly (:meth:`_facet_terms`) when they changed on a rank (collective: every
+        rank makes B, and forms, which dolfinx may make collectively)."""
         if not self._activity_fresh:
             self.facet_terms_inactive()
         changed = self._facets.update(self.active_cells())
-        if self.B.getComm().tompi4py().allreduce(changed, op=MPI.LOR):
-            self.J_facet = Forms(self._facets.restrict(self._J_force))
+        needed = self._facets.needed
+        moved = self._on_needed is None or not np.array_equal(self._on_needed[0], needed)
+        flags = np.array([changed, moved], dtype=np.int32)
+        self.B.getComm().tompi4py().Allreduce(MPI.IN_PLACE, flags, op=MPI.MAX)
+        if flags[1]:
+            self._on_needed = (needed, self._facets.compiled_on(self._J_all, needed))
+        if flags[0]:
+            self.J_facet = self._facets.compiled_on(self._J_all, self._facets.current)
             self._make_B()  # on their sparsity: its work scales with them
             return True
         return False

@@ -9,6 +9,7 @@ itself.
 from __future__ import annotations
 
 import contextlib
+import functools
 import inspect
 import os
 import sys
@@ -30,6 +31,7 @@ __all__ = [
     "create_vector",
     "expression",
     "dofmap_array",
+    "form_on_facets",
     "function_space",
     "has_mumps",
     "element_degree",
@@ -276,6 +278,55 @@ def add_matrix_entries(A: PETSc.Mat, a) -> None:
     constants = cpp.fem.pack_constants(form)
     coefficients = cpp.fem.pack_coefficients(form)
     cpp.fem.petsc.assemble_matrix(A, form, constants, coefficients, [])
+
+
+@functools.cache
+def _ffi():
+    """One cffi FFI for the casts of :func:`form_on_facets` (it caches the types it parses)."""
+    import cffi
+
+    return cffi.FFI()
+
+
+def form_on_facets(a, form: ufl.Form, facets: np.ndarray, ids: np.ndarray):
+    """The compiled form ``a`` of the UFL form ``form``, whose integrals are all exterior
+    facet integrals, over other facets: ``facets`` (local indices, sorted), those with
+    subdomain id ``ids``. The compiled kernels of ``a`` are used again: no UFL signature
+    and no look-up in FFCx's cache, which take milliseconds. The C++ form is made as
+    ``dolfinx.fem.form`` makes it: from the Form itself with the facets as tags up to
+    0.8, from its ``_cpp_object`` with (cell, local facet) pairs from 0.9 (with the
+    facet dimension as an argument in 0.9, and the kernels as a list from 0.10)."""
+    from dolfinx import cpp
+
+    constants = [constant._cpp_object for constant in form.constants()]
+    exterior = fem.IntegralType.exterior_facet
+    if not hasattr(a, "_cpp_object"):  # <= 0.8
+        mesh = form.ufl_domain().ufl_cargo()
+        dim = mesh.topology.dim - 1
+        tags = cpp.mesh.MeshTags_int32(mesh, dim, facets.astype(np.int32), ids.astype(np.int32))
+        domains = {kind: None for kind in fem.IntegralType.__members__.values()}
+        domains[exterior] = tags
+        return type(a)(a.ufcx_form, a.function_spaces, a.coefficients, constants,
+                       domains, mesh, _ffi(), a.code)  # fmt: skip
+    compiled = a._cpp_object
+    topology, dim = compiled.mesh.topology, compiled.mesh.topology.dim - 1
+    domains = []
+    for tag in sorted({int(integral.subdomain_id()) for integral in form.integrals()}):
+        chosen = facets[ids == tag].astype(np.int32)
+        try:  # >= 0.10
+            pairs = cpp.fem.compute_integration_domains(exterior, topology, chosen)
+        except TypeError:
+            pairs = cpp.fem.compute_integration_domains(exterior, topology, chosen, dim)
+        domains.append((tag, np.asarray(pairs)))
+    kernels = a.module.ffi.cast("uintptr_t", a.module.ffi.addressof(a.ufcx_form))
+    spaces, coefficients = compiled.function_spaces, compiled.coefficients
+    try:  # >= 0.10
+        made = type(compiled)([int(kernels)], spaces, coefficients, constants,
+                              {exterior: domains}, [], compiled.mesh)  # fmt: skip
+    except TypeError:
+        made = type(compiled)(kernels, spaces, coefficients, constants,
+                              {exterior: domains}, {}, compiled.mesh)  # fmt: skip
+    return fem.Form(made, a.ufcx_form, a.code, a.module)
 
 
 def apply_lifting(b: PETSc.Vec, a, bcs, x0=None, alpha: float = 1.0) -> None:

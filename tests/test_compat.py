@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem, mesh
+from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -215,6 +216,7 @@ COMPILE_A_NEW_FORM = """
 import random
 import ufl
 from dolfinx import fem, mesh
+from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 import nitsche_dolfinx
 m = mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
@@ -234,3 +236,42 @@ def test_form_compilation_is_quiet():
     quiet = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert quiet.returncode == 0, quiet.stderr
     assert "INFO:root" not in quiet.stderr and "gcc" not in quiet.stderr
+
+
+@pytest.mark.mpi
+def test_form_on_facets_is_the_form_compiled_on_them():
+    """A compiled form moved to other facets (its kernels used again) assembles to the
+    bit what the form compiled on those facets does: two subdomain ids, one of them
+    without facets, and no facets at all, on every rank (the move may be collective)."""
+    cube = mesh.create_unit_cube(MPI.COMM_WORLD, 3, 3, 3)
+    dim = cube.topology.dim - 1
+    cube.topology.create_connectivity(dim, dim + 1)
+    facets = mesh.locate_entities_boundary(
+        cube, dim, lambda x: np.isclose(x[2], 0.0) | np.isclose(x[0], 1.0)
+    )
+    bottom = np.isclose(mesh.compute_midpoints(cube, dim, facets)[:, 2], 0.0)
+    ids = np.where(bottom, 3, 5).astype(np.int32)
+    ds = ufl.Measure("ds", domain=cube, subdomain_data=mesh.meshtags(cube, dim, facets, ids))
+    V = compat.function_space(cube, "Lagrange", 2, (3,))
+    u, v, w = ufl.TrialFunction(V), ufl.TestFunction(V), fem.Function(V)
+    w.interpolate(lambda x: np.stack([x[0], x[1] ** 2, x[2]]))
+    c = fem.Constant(cube, 2.0)
+    form = c * (1 + ufl.inner(w, w)) * ufl.inner(u, v) * ds(3) + ufl.inner(
+        ufl.grad(u), ufl.grad(v)
+    ) * ds(5)
+    compiled = fem.form(form)
+
+    def assembled(a):
+        A = compat.create_matrix(compiled)  # every entry of the form on all facets
+        fem_petsc.assemble_matrix(A, a)
+        A.assemble()
+        return A
+
+    for chosen in (np.arange(len(facets)) % 2 == 0, ~bottom, np.zeros(len(facets), bool)):
+        tags = mesh.meshtags(cube, dim, facets[chosen], ids[chosen])
+        there = ufl.Form([i.reconstruct(subdomain_data=tags) for i in form.integrals()])
+        moved = assembled(compat.form_on_facets(compiled, form, facets[chosen], ids[chosen]))
+        reference = assembled(fem.form(there))
+        whole = cube.comm.allreduce(int(chosen.sum()), op=MPI.SUM)
+        assert (reference.norm() > 0) == (whole > 0)
+        assert moved.equal(reference)

@@ -150,18 +150,20 @@ def test_jacobian_rows_set_again_are_the_sum_in_full():
 
 
 def test_contact_jacobian_near_the_contact_is_the_whole_one():
-    """In contact, the force terms' Jacobian B is assembled on the facets near the
-    contact only: it equals their assembly on all of Gamma_C to the bit, and the
-    Jacobian summed from B and the constant terms equals J assembled as one form."""
+    """In contact, the force terms' Jacobian B lives on the facets near the contact and
+    is assembled on those of the cells in contact only: it equals its assembly on all
+    of Gamma_C to the bit, and the Jacobian summed from B and the constant terms equals
+    J assembled as one form."""
     simulation, _ = _disk_steps(105, mesh_size=2.0)
     solver = simulation.solver
     split = solver._split
     split.facet_jacobian_changed()  # at the coefficients of now, near the contact
     facets = split._facets
-    assert 0 < facets.current.sum() < len(facets.current) // 2
+    assert 0 < facets.needed.sum() < facets.current.sum() < len(facets.current) // 2
+    assert split._facet_terms() is not split.J_facet  # assembled on the needed facets
     whole = split.B.duplicate()
     whole.zeroEntries()
-    Forms(split._J_force).assemble_matrix(whole, split.bcs, 0.0)  # on every facet
+    Forms(split._J_all.ufl).assemble_matrix(whole, split.bcs, 0.0)  # on every facet
     whole.assemble()
     assert whole.norm() > 0 and whole.equal(split.B)
     A = solver._A
