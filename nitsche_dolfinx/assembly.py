@@ -579,11 +579,11 @@ class AffineCellSplit:
         self._B_known = False
 
     def _restrict(self) -> bool:
-        """Take the facets near the contact of the iterate for B's form when the contact
-        has moved beyond its facets or left most of them, and make B on them, assembled
-        at the iterate; True if so. Take the facets of the cells in contact for its
-        assembly (:meth:`_facet_terms`) when they changed on a rank (collective: every
-        rank makes B, and forms, which dolfinx may make collectively)."""
+        """Follow the contact of the iterate: when it has moved beyond the facets of B's
+        sparsity or left most of them, make B on the facets near it, assembled at the
+        iterate, and return True; when the facets of the cells in contact changed on a
+        rank, take them for B's assembly (:meth:`_facet_terms`). Collective: the ranks
+        make B and the forms together (dolfinx may make a facet form collectively)."""
         if not self._activity_fresh:
             self.facet_terms_inactive()
         changed = self._facets.update(self.active_cells())
