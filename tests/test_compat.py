@@ -216,7 +216,6 @@ COMPILE_A_NEW_FORM = """
 import random
 import ufl
 from dolfinx import fem, mesh
-from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 import nitsche_dolfinx
 m = mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
