@@ -37,8 +37,8 @@ test-mpi:
 
 lint:
 	$(PY) -m pip install --quiet ruff
-	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks meshes
-	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks meshes
+	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks meshes scripts
+	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks meshes scripts
 
 clean:
 	rm -rf out .pytest_cache .python-path .setup-stamp

@@ -38,7 +38,7 @@ import numpy as np
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from .checkpoint import ERROR_AGREEMENT_SECONDS, RunInterrupted, all_ranks_reach
+from .agreement import ERROR_AGREEMENT_SECONDS, FailureChannel
 from .output import ensure_directory
 from .parameters import (
     GAMMA0_SCALINGS,
@@ -49,10 +49,10 @@ from .parameters import (
     TimeStepping,
 )
 from .schemes import SCHEMES, TimeScheme, make_scheme
+from .signals import RunInterrupted
 from .solver import SolverError
 
 __all__ = [
-    "ERROR_AGREEMENT_SECONDS",
     "MethodParameters",
     "add_method_arguments",
     "add_output_every_argument",
@@ -267,9 +267,7 @@ def one_line_errors(
     prog = parser if isinstance(parser, str) else parser.prog
     if flags is None and not isinstance(parser, str):
         flags = parser
-    # failures are compared on a communicator of their own, so that this never matches
-    # a collective operation that the other ranks are waiting in
-    errors = comm.Dup() if comm.size > 1 else None
+    failures = FailureChannel(comm)
     try:
         yield
     except SystemExit:
@@ -278,7 +276,7 @@ def one_line_errors(
         if isinstance(error, ParameterError) and flags is not None:
             error = _under_its_flag(error, flags)
         status, message = _status_and_message(error)
-        if errors is None or all_ranks_reach(errors, grace):
+        if failures.every_rank_failed(grace):
             if comm.rank == 0:
                 print(f"{prog}: error: {message}", file=sys.stderr, flush=True)
             sys.exit(status)
@@ -288,8 +286,7 @@ def one_line_errors(
             flush=True,
         )
         comm.Abort(status)
-    if errors is not None:
-        errors.Free()
+    failures.free()
 
 
 def _under_its_flag(error: ParameterError, parser: argparse.ArgumentParser) -> ParameterError:

@@ -1,4 +1,4 @@
-"""Surviving a run: checkpoints, restarts, and clean stops on SIGINT or SIGTERM.
+"""Checkpoints and restarts: the state of a time level saved, and found again on any partition.
 
 A checkpoint is a folder (``OUT/checkpoint`` for :meth:`Simulation.run
 <nitsche_dolfinx.simulation.Simulation.run>`) holding
@@ -25,41 +25,32 @@ the memory of one rank bounds the size). Another mesh, space, scheme, method or
 Nitsche variant is refused with a message naming the difference; the time step
 and gamma0 may change (:data:`CHANGEABLE`), and so may the solver options.
 
-While a run is going on, :class:`StopSignals` turns SIGINT and SIGTERM into a
-request to stop that the ranks agree on at the end of the step (an
-``allreduce``), so that all of them stop after the same step, write a
-checkpoint and raise :class:`RunInterrupted`.
+A run stopped by SIGINT or SIGTERM (:mod:`~nitsche_dolfinx.signals`) or by a failed step
+writes a checkpoint of its last complete step through :func:`save_state`.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import signal
-import threading
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 from mpi4py import MPI
 
+from . import compat
+from .agreement import agree
 from .history import added_columns
 
 __all__ = [
     "CHECKPOINT_FILE",
+    "CheckpointError",
+    "SavedState",
     "has_checkpoint",
     "load_state",
-    "node_coordinates",
-    "save_state",
-    "ERROR_AGREEMENT_SECONDS",
-    "CheckpointError",
-    "RunInterrupted",
-    "SavedState",
-    "StopSignals",
-    "agree",
-    "all_ranks_reach",
     "match_points",
     "read_checkpoint",
+    "save_state",
     "write_checkpoint",
 ]
 
@@ -69,8 +60,6 @@ CHANGEABLE = ("dt", "gamma0", "gamma0_scaling")
 
 #: The metadata file of a checkpoint folder; its presence makes the folder a checkpoint.
 CHECKPOINT_FILE = "checkpoint.json"
-#: How long a failing rank waits for the other ranks to fail too (see :func:`all_ranks_reach`).
-ERROR_AGREEMENT_SECONDS = 10.0
 _FORMAT = "nitsche-dolfinx checkpoint"
 _VERSION = 1
 
@@ -91,70 +80,6 @@ class SavedState:
 
     def __str__(self) -> str:
         return f"the state at step {self.step} (t = {self.t:.6g}) is saved in {self.folder}"
-
-
-class RunInterrupted(RuntimeError):
-    """The run stopped cleanly on SIGINT or SIGTERM after a complete step.
-
-    Attributes:
-        signal_number: The signal (the largest one if ranks received different ones).
-        step, t: The last completed step and its time.
-        checkpoint: The :class:`SavedState`, or None if the run had nowhere to write one.
-        exit_status: 128 + the signal number (130 for SIGINT, 143 for SIGTERM).
-    """
-
-    def __init__(self, signal_number: int, step: int, t: float, checkpoint=None):
-        self.signal_number = int(signal_number)
-        self.step, self.t = step, t
-        self.checkpoint = checkpoint
-        self.exit_status = 128 + self.signal_number
-        name = _signal_name(self.signal_number)
-        message = f"interrupted by {name} after step {step} (t = {t:.6g})"
-        if checkpoint is not None:
-            message += f"; {checkpoint}"
-        super().__init__(message)
-
-
-def _signal_name(number: int) -> str:
-    try:
-        return signal.Signals(number).name
-    except ValueError:
-        return f"signal {number}"
-
-
-# -- agreeing on errors ----------------------------------------------------------------
-
-
-def agree(comm, error: str | None, kind=CheckpointError) -> None:
-    """Raise ``kind`` on every rank if any rank has an ``error`` (the lowest rank's message).
-
-    Collective: every rank calls it, so a failure on one rank (a file it cannot
-    write) stops all of them at the same place instead of leaving the others waiting.
-    """
-    errors = comm.allgather(error) if comm.size > 1 else [error]
-    for rank, message in enumerate(errors):
-        if message is not None:
-            where = f" (rank {rank})" if comm.size > 1 and errors.count(message) < comm.size else ""
-            raise kind(f"{message}{where}")
-
-
-def all_ranks_reach(comm, grace: float = ERROR_AGREEMENT_SECONDS) -> bool:
-    """Whether every rank of ``comm`` calls this within ``grace`` seconds of each other.
-
-    A rank that fails calls it to learn whether the failure is collective (every rank
-    raised the same error, as validation does) or its own (the others are waiting in
-    some collective operation, and will wait forever). ``comm`` must be a communicator
-    used for nothing else (a ``Dup``), so that this never matches another operation.
-    """
-    if comm.size == 1:
-        return True
-    request = comm.Ibarrier()
-    deadline = time.monotonic() + grace
-    while not request.Test():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 # -- writing and reading -----------------------------------------------------------------
@@ -204,7 +129,7 @@ def write_checkpoint(
             os.makedirs(folder, exist_ok=True)
         except OSError as exc:
             error = f"checkpoint folder {folder!r} cannot be created: {exc.strerror or exc}"
-    agree(comm, comm.bcast(error, root=0))
+    agree(comm, comm.bcast(error, root=0), CheckpointError)
     state = f"state-{step:08d}"
     path = os.path.join(folder, _rank_file(state, comm.rank))
     error = None
@@ -212,7 +137,8 @@ def write_checkpoint(
         _write_atomically(path, lambda f: np.savez(f, **arrays))
     except OSError as exc:
         error = f"checkpoint file {path!r} cannot be written: {exc.strerror or exc}"
-    agree(comm, error)  # every rank's file is complete before the metadata names it
+    # every rank's file is complete before the metadata names it
+    agree(comm, error, CheckpointError)
     previous = None
     if comm.rank == 0:
         meta_path = os.path.join(folder, CHECKPOINT_FILE)
@@ -231,7 +157,7 @@ def write_checkpoint(
             _write_atomically(meta_path, lambda f: f.write(text))
         except (OSError, TypeError) as exc:
             error = f"checkpoint metadata {meta_path!r} cannot be written: {exc}"
-    agree(comm, comm.bcast(error, root=0))
+    agree(comm, comm.bcast(error, root=0), CheckpointError)
     previous = comm.bcast(previous.get("state") if isinstance(previous, dict) else None, root=0)
     if previous is not None and previous != state:  # the new state is named: drop the old one
         old = os.path.join(folder, _rank_file(previous, comm.rank))
@@ -272,7 +198,7 @@ def read_checkpoint(folder: str, comm) -> tuple[dict, dict[str, np.ndarray]]:
     if comm.rank == 0:
         content = _read_metadata(os.path.join(folder, CHECKPOINT_FILE))
     content = comm.bcast(content, root=0)
-    agree(comm, content if isinstance(content, str) else None)
+    agree(comm, content if isinstance(content, str) else None, CheckpointError)
     parts, error = [], None
     for rank in range(int(content["ranks"])):
         path = os.path.join(folder, _rank_file(content["state"], rank))
@@ -282,7 +208,7 @@ def read_checkpoint(folder: str, comm) -> tuple[dict, dict[str, np.ndarray]]:
         except (OSError, ValueError) as exc:
             error = f"checkpoint file {path!r} cannot be read: {exc}"
             break
-    agree(comm, error)
+    agree(comm, error, CheckpointError)
     names = parts[0].keys() if parts else ()
     return content, {name: np.concatenate([part[name] for part in parts]) for name in names}
 
@@ -315,24 +241,6 @@ def match_points(saved: np.ndarray, points: np.ndarray, tolerance: float) -> np.
     return index
 
 
-def node_coordinates(V) -> np.ndarray:
-    """The coordinates of the nodes of a Lagrange space, one row per block of its dof
-    array (owned, then ghosts): each coordinate interpolated into the space, which works
-    for every space on every dolfinx (``tabulate_dof_coordinates`` refuses 1D vector
-    spaces in 0.5)."""
-    from dolfinx import fem
-
-    field = fem.Function(V)
-    components = field.ufl_shape[0] if field.ufl_shape else 0
-    bs = V.dofmap.index_map_bs
-    columns = []
-    for d in range(V.mesh.geometry.dim):
-        field.interpolate(lambda x, d=d: np.tile(x[d], (components, 1)) if components else x[d])
-        field.x.scatter_forward()
-        columns.append(field.x.array.reshape(-1, bs)[:, 0].copy())
-    return np.column_stack(columns)
-
-
 def _points_key(name: str, function, first_space) -> str:
     """The array of node coordinates of ``function``: shared by the functions on the
     first space, its own for a function on another space."""
@@ -352,7 +260,7 @@ def save_state(stepper, folder: str, columns=None) -> SavedState:
         arrays[name] = f.x.array.reshape(-1, bs)[:owned]
         key = _points_key(name, f, first_space)
         if key not in arrays:
-            arrays[key] = node_coordinates(V)[:owned]
+            arrays[key] = compat.node_coordinates(V)[:owned]
     metadata = {
         **stepper.describe(),
         **stepper.levels(),
@@ -409,7 +317,7 @@ def load_state(stepper, folder: str, columns=None) -> SavedState:
 
 def _matching_nodes(comm, folder, saved_points, V) -> np.ndarray:
     """For each node of V on this rank, the row of the saved nodes at the same place."""
-    points = node_coordinates(V)
+    points = compat.node_coordinates(V)
     extent = comm.allreduce(float(np.abs(points).max(initial=0.0)), op=MPI.MAX)
     index = match_points(saved_points, points, 1e-8 * max(extent, 1.0))
     missing = int(np.count_nonzero(index < 0))
@@ -419,48 +327,6 @@ def _matching_nodes(comm, folder, saved_points, V) -> np.ndarray:
         "nodes of this mesh (another mesh?)"
         if missing
         else None,
+        CheckpointError,
     )
     return index
-
-
-# -- signals ---------------------------------------------------------------------------
-
-
-class StopSignals:
-    """While active (a ``with`` block), SIGINT and SIGTERM ask the run to stop.
-
-    The handler only records the signal; :meth:`requested` is called between
-    steps, on every rank, and returns the same answer everywhere. A second
-    SIGINT while a stop is pending raises KeyboardInterrupt at once. The
-    previous handlers are restored on leaving the block. Outside the main
-    thread (where Python cannot install handlers) nothing is installed.
-    """
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self):
-        self.received = 0
-        self._previous = {}
-
-    def __enter__(self) -> StopSignals:
-        if threading.current_thread() is threading.main_thread():
-            for number in self.SIGNALS:
-                self._previous[number] = signal.signal(number, self._handle)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for number, handler in self._previous.items():
-            # None: a handler installed from C (not by Python), which cannot be put back
-            signal.signal(number, signal.SIG_DFL if handler is None else handler)
-        self._previous.clear()
-
-    def _handle(self, number, frame) -> None:
-        if self.received and number == signal.SIGINT:
-            raise KeyboardInterrupt
-        self.received = self.received or number
-
-    def requested(self, comm) -> int:
-        """The signal received by any rank (0 if none); collective."""
-        if comm.size == 1:
-            return self.received
-        return comm.allreduce(self.received, op=MPI.MAX)

@@ -41,6 +41,7 @@ __all__ = [
     "interpolation_points",
     "mesh_keeping_cells",
     "mixed_function_space",
+    "node_coordinates",
     "own_symbols",
     "petsc_vector",
     "read_gmsh_file",
@@ -393,6 +394,22 @@ def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> str | None:
 
 
 # -- expressions -----------------------------------------------------------------------
+
+
+def node_coordinates(V) -> np.ndarray:
+    """The coordinates of the nodes of a Lagrange space, one row per block of its dof
+    array (owned, then ghosts): each coordinate interpolated into the space, which works
+    for every space on every dolfinx (``tabulate_dof_coordinates`` refuses 1D vector
+    spaces in 0.5)."""
+    field = fem.Function(V)
+    components = field.ufl_shape[0] if field.ufl_shape else 0
+    bs = V.dofmap.index_map_bs
+    columns = []
+    for d in range(V.mesh.geometry.dim):
+        field.interpolate(lambda x, d=d: np.tile(x[d], (components, 1)) if components else x[d])
+        field.x.scatter_forward()
+        columns.append(field.x.array.reshape(-1, bs)[:, 0].copy())
+    return np.column_stack(columns)
 
 
 def interpolation_points(V) -> np.ndarray:

@@ -29,7 +29,6 @@ from dolfinx import fem
 from petsc4py import PETSc
 
 from . import compat
-from .checkpoint import node_coordinates
 from .contact import positive_part
 from .diagnostics import MassMoments, Penetration, assemble_global
 from .dirichlet import DirichletDofs
@@ -53,7 +52,7 @@ __all__ = ["MixedStepper"]
 
 def _node_keys(V) -> np.ndarray:
     """(coordinates..., component) of every local dof of V, for matching two numberings."""
-    points = node_coordinates(V)
+    points = compat.node_coordinates(V)
     bs = V.dofmap.index_map_bs
     keys = np.repeat(points, bs, axis=0).T.tolist() + [np.tile(np.arange(bs), len(points))]
     return np.round(np.array(keys), 12)

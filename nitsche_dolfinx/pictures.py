@@ -348,9 +348,7 @@ class Worldlines:
     def __call__(self, simulation) -> None:
         V = simulation.problem.V
         if self._x is None:
-            from .checkpoint import node_coordinates
-
-            self._x = node_coordinates(V)[:, 0]
+            self._x = compat.node_coordinates(V)[:, 0]
         owned = V.dofmap.index_map.size_local
         bs = V.dofmap.index_map_bs
         u, v = (f.x.array.reshape(-1, bs)[:owned, 0] for f in (simulation.u, simulation.v))

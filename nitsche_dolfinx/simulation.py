@@ -18,15 +18,8 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from .checkpoint import (
-    CheckpointError,
-    RunInterrupted,
-    SavedState,
-    StopSignals,
-    all_ranks_reach,
-    load_state,
-    save_state,
-)
+from .agreement import FailureChannel
+from .checkpoint import CheckpointError, SavedState, load_state, save_state
 from .history import HISTORY_COLUMNS, History
 from .linear_solvers import linear_solver as linear_solver_preset
 from .linear_solvers import rigid_body_modes
@@ -35,6 +28,7 @@ from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_dir
 from .parameters import OutputParameters, TimeStepping
 from .progress import Progress
 from .schemes import TimeScheme
+from .signals import RunInterrupted, StopSignals
 from .solver import SolverError
 from .stepper import NitscheStepper, Stepper
 
@@ -224,8 +218,7 @@ class Simulation:
         output = OutputParameters(output_every, checkpoint_every)
         run = _Run(self, out, list(columns), output)
         run.open(restart)
-        # failures are compared on a communicator of their own (see all_ranks_reach)
-        errors = self.comm.Dup() if self.comm.size > 1 else None
+        failures = FailureChannel(self.comm)
         collective_exit = False
         try:
             with StopSignals() as signals:
@@ -237,12 +230,12 @@ class Simulation:
         except BaseException:
             # closing the XDMF file is collective: if the other ranks did not fail, they
             # wait elsewhere, and the file is left to the end of the process
-            collective_exit = errors is None or all_ranks_reach(errors)
+            collective_exit = failures.every_rank_failed()
             raise
         finally:
             run.close(collective_exit)
-            if collective_exit and errors is not None:
-                errors.Free()
+            if collective_exit:
+                failures.free()
         return run.history
 
     # -- checkpoints ---------------------------------------------------------------------

@@ -30,8 +30,9 @@ from runs import (
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, read_history
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE, CheckpointError, RunInterrupted
+from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE, CheckpointError
 from nitsche_dolfinx.history import HISTORY_COLUMNS
+from nitsche_dolfinx.signals import RunInterrupted
 
 # -- 3./4. SIGINT and restart -----------------------------------------------------------------
 
