@@ -123,7 +123,7 @@ def measure(
         "solve_seconds": solve,
         "other_seconds": loop - assembly - solve,
         "peak_memory_mb": memory / 1024.0,
-        "factorisations": simulation.solver.preconditioner_updates,
+        "factorisations": simulation.solver.petsc.preconditioner_updates,
     }
 
 

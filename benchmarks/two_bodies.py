@@ -106,7 +106,7 @@ def measure(problem: ContactProblem, args) -> dict:
     )
     events = ("SNESFunctionEval", "SNESJacobianEval", "PCSetUp", "KSPSolve")
     before = [event_seconds(e) for e in events]
-    factorisations = simulation.solver.preconditioner_updates
+    factorisations = simulation.solver.petsc.preconditioner_updates
     start = time.perf_counter()
     history = simulation.run()
     loop = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
@@ -114,7 +114,7 @@ def measure(problem: ContactProblem, args) -> dict:
     steps = np.max(comm.allgather(np.asarray(history["step_seconds"][1:])), axis=0)
     contact = np.asarray(history["contact_force"][1:]) > 0
     newton = np.asarray(history["newton_iterations"][1:])
-    factorisations = simulation.solver.preconditioner_updates - factorisations
+    factorisations = simulation.solver.petsc.preconditioner_updates - factorisations
 
     def median(selected):
         return float(np.median(steps[selected])) if selected.any() else float("nan")

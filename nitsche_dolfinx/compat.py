@@ -46,7 +46,7 @@ __all__ = [
     "petsc_vector",
     "read_gmsh_file",
     "set_bc",
-    "set_divergence_tolerance",
+    "divergence_tolerance",
     "trapezoid",
     "vtk_mesh",
     "write_meshtags",
@@ -373,24 +373,21 @@ def has_mumps(comm) -> bool:
     return bool(comm.allreduce(found, op=MPI.LAND))
 
 
-def set_divergence_tolerance(snes: PETSc.SNES, dtol: float) -> str | None:
+def divergence_tolerance(snes: PETSc.SNES, dtol: float) -> dict[str, float]:
     """Set SNES's divergence tolerance: SNES stops when ||F|| > dtol ||F_0||.
 
-    petsc4py >= 3.20 has a setter; before, only the options database knows it.
-    The value -1 meant "no test" up to PETSc 3.21 and "default" after, so to
-    switch the test off pass a huge number instead. Call before ``setFromOptions``.
+    petsc4py >= 3.20 has a setter, called here; before, only the options database knows
+    it: the option is returned, for the caller to put in the database for SNES's
+    ``setFromOptions`` (under the solver's prefix). The value -1 meant "no test" up to
+    PETSc 3.21 and "default" after, so to switch the test off pass a huge number instead.
 
     Returns:
-        The name of the options-database entry set (None with the setter): the caller
-        removes it once ``setFromOptions`` has read it, since the database is bounded
-        (512 entries in PETSc 3.18) and every solver has a prefix of its own.
+        ``{}`` with the setter, else ``{"snes_divergence_tolerance": dtol}``.
     """
     if hasattr(snes, "setDivergenceTolerance"):
         snes.setDivergenceTolerance(dtol)
-        return None
-    name = f"{snes.getOptionsPrefix() or ''}snes_divergence_tolerance"
-    PETSc.Options()[name] = dtol
-    return name
+        return {}
+    return {"snes_divergence_tolerance": dtol}
 
 
 # -- expressions -----------------------------------------------------------------------

@@ -14,10 +14,10 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
-from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
+from .collective import max_over_ranks, sum_over_ranks
 from .history import centre_of_mass_columns, contact_columns, momentum_columns
 
 __all__ = [
@@ -33,7 +33,7 @@ __all__ = [
 
 def assemble_global(form, comm) -> float:
     """The value of a compiled scalar form over the whole mesh."""
-    return comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+    return float(sum_over_ranks(comm, [fem.assemble_scalar(form)])[0])
 
 
 class BoundaryAverage:
@@ -165,7 +165,7 @@ class Penetration:
             field.interpolate(expression, cells)
             if len(dofs):
                 local = max(local, float(field.x.array[dofs].max()))
-        return self.comm.allreduce(local, op=MPI.MAX)
+        return float(max_over_ranks(self.comm, [local])[0])
 
 
 class MassMoments:
@@ -201,7 +201,16 @@ class MassMoments:
     def _sums(self, function) -> np.ndarray:
         """M f summed by component over all ranks (M f stays in the work vector)."""
         self.matrix.mult(compat.petsc_vector(function), self._work)
-        return self.comm.allreduce(self._work.array.reshape(-1, self.bs).sum(axis=0), op=MPI.SUM)
+        return sum_over_ranks(self.comm, self._work.array.reshape(-1, self.bs).sum(axis=0))
+
+    def momentum(self, v) -> np.ndarray:
+        """The total linear momentum, by component: the rows of M v summed."""
+        return self._sums(v)
+
+    def kinetic(self, v) -> float:
+        """1/2 v . M v."""
+        self.matrix.mult(compat.petsc_vector(v), self._work)
+        return 0.5 * self._work.dot(compat.petsc_vector(v))
 
     def kinetic_and_momentum(self, v) -> tuple[float, np.ndarray]:
         """1/2 v . M v and the momentum, by component."""
@@ -226,6 +235,10 @@ class Diagnostics:
     pair; the momentum and the centre of mass (:class:`MassMoments`); the contact totals of
     each contact term (:func:`~nitsche_dolfinx.history.contact_columns`).
 
+    The energies and the contact totals are computed at every call; the largest
+    penetration, the momentum, the centre of mass and the totals of each contact term
+    (:attr:`OPTIONAL`) only when asked for, by the columns of a history or by default.
+
     Args:
         model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
         u: Displacement at the current time level.
@@ -242,19 +255,29 @@ class Diagnostics:
         self._stiffness = _assembled(model.bulk_stiffness(trial, test))
         self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
+        # without loads the potential is zero: no form to assemble each step
+        loaded = model.has_loads
         forms = {
-            "potential": -model.load(u),
+            "potential": -model.load(u) if loaded else None,
             "energy_correction": _total([c.energy_correction(u) for c in model.contacts], zero),
             "contact_force": _total([c.force(u) for c in model.contacts], zero),
             "contact_area": _total([c.area(u) for c in model.contacts], zero),
         }
+        self._forms = {name: fem.form(f) for name, f in forms.items() if f is not None}
         self._each_contact = contact_columns(len(model.contacts))
+        self._each_forms = {}
         if len(model.contacts) > 1:  # one contact: its totals are the sums
             for k, contact in enumerate(model.contacts, start=1):
-                forms[f"contact_force_{k}"] = contact.force(u)
-                forms[f"contact_area_{k}"] = contact.area(u)
-        self._forms = {name: fem.form(form) for name, form in forms.items()}
+                self._each_forms[f"contact_force_{k}"] = fem.form(contact.force(u))
+                self._each_forms[f"contact_area_{k}"] = fem.form(contact.area(u))
         self.penetration = Penetration(model, u)
+        #: The optional groups of columns, by name.
+        self.OPTIONAL = {
+            "penetration": ("penetration_max",),
+            "momentum": self.moments.momentum_names,
+            "centre_of_mass": self.moments.centre_names,
+            "each_contact": self._each_contact,
+        }
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""
@@ -262,30 +285,52 @@ class Diagnostics:
         matrix.mult(x, self._work)
         return 0.5 * self._work.dot(x)
 
-    def compute(self) -> dict[str, float]:
-        """All diagnostics at the current state, identical on every rank."""
+    def _groups(self, columns) -> set[str]:
+        """The optional groups that ``columns`` ask for (None: all)."""
+        if columns is None:
+            return {group for group, names in self.OPTIONAL.items() if names}
+        return {group for group, names in self.OPTIONAL.items() if set(names) & set(columns)}
+
+    def compute(self, columns=None) -> dict[str, float]:
+        """The diagnostics at the current state, identical on every rank: the energies and
+        the contact totals, and the optional ones that ``columns`` name (None: all)."""
         _update_partners(self.model, self.u)
-        local = np.array([fem.assemble_scalar(form) for form in self._forms.values()])
-        values = dict(zip(self._forms, self.comm.allreduce(local, op=MPI.SUM)))
-        values["kinetic"], momentum = self.moments.kinetic_and_momentum(self.v)
+        names = list(self._forms)
+        local = [fem.assemble_scalar(form) for form in self._forms.values()]
+        values = dict(zip(names, sum_over_ranks(self.comm, local).tolist()))
+        values.setdefault("potential", 0.0)
+        values["kinetic"] = self.moments.kinetic(self.v)
         values["elastic"] = self._quadratic(self._stiffness, self.u)
         energy = values["kinetic"] + values["elastic"] + values["potential"]
-        if len(self.model.contacts) == 1:  # its totals are the sums
-            values["contact_force_1"] = values["contact_force"]
-            values["contact_area_1"] = values["contact_area"]
-        return {
+        result = {
             "energy": energy,
             "energy_theta": energy + values["energy_correction"],
-            "kinetic": values["kinetic"],
-            "elastic": values["elastic"],
-            "potential": values["potential"],
+            **{key: values[key] for key in ("kinetic", "elastic", "potential")},
             "contact_force": values["contact_force"],
             "contact_area": values["contact_area"],
-            "penetration_max": self.penetration.max(),
-            **dict(zip(self.moments.momentum_names, momentum.tolist())),
-            **dict(zip(self.moments.centre_names, self.moments.centre_of_mass(self.u).tolist())),
-            **{name: values[name] for name in self._each_contact},
         }
+        return self.complete(result, columns)
+
+    def complete(self, values: dict[str, float], columns=None) -> dict[str, float]:
+        """Add to the diagnostics ``values`` of the current state the optional ones that
+        ``columns`` name (None: all) and that they lack; returns ``values``."""
+        missing = {g for g in self._groups(columns) if self.OPTIONAL[g][0] not in values}
+        if "penetration" in missing:
+            values["penetration_max"] = self.penetration.max()
+        if "momentum" in missing:
+            values.update(zip(self.moments.momentum_names, self.moments.momentum(self.v).tolist()))
+        if "centre_of_mass" in missing:
+            centre = self.moments.centre_of_mass(self.u).tolist()
+            values.update(zip(self.moments.centre_names, centre))
+        if "each_contact" in missing:
+            if len(self.model.contacts) == 1:  # its totals are the sums
+                values["contact_force_1"] = values["contact_force"]
+                values["contact_area_1"] = values["contact_area"]
+            elif self._each_forms:
+                local = [fem.assemble_scalar(form) for form in self._each_forms.values()]
+                totals = sum_over_ranks(self.comm, local).tolist()
+                values.update(zip(self._each_forms, totals))
+        return values
 
 
 class PointValue:

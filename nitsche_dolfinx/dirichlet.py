@@ -89,6 +89,11 @@ class DirichletDofs:
             nodes = fem.locate_dofs_topological(V, fdim, problem.facets(condition.tag))
             dofs = (nodes[:, None] * self.bs + np.array(condition.components)).ravel()
             self.conditions.append((nodes, dofs, condition))
+        # each dof once, with the last condition that prescribes it (as set_values leaves it)
+        every = self.dofs[::-1]
+        #: Each Dirichlet dof once (sorted).
+        self.prescribed, last = np.unique(every, return_index=True)
+        self._last = len(every) - 1 - last  # its last place among the conditions' dofs
 
     def __bool__(self) -> bool:
         return bool(self.conditions)
@@ -103,6 +108,14 @@ class DirichletDofs:
         for _, dofs, condition in self.conditions:
             values = condition.value.value_at(t)  # one per component, dofs node by node
             target[dofs] = np.tile(values, len(dofs) // len(values))
+
+    def values(self, t: float) -> np.ndarray:
+        """The values prescribed at time t at the dofs :attr:`prescribed`."""
+        parts = [
+            np.tile(condition.value.value_at(t), len(dofs) // len(condition.components))
+            for _, dofs, condition in self.conditions
+        ]
+        return np.concatenate(parts or [np.zeros(0)])[self._last]
 
     def boundary_conditions(self, function: fem.Function) -> list:
         """The dolfinx conditions that give the Dirichlet dofs the values of ``function``

@@ -1,13 +1,8 @@
-"""Coulomb friction around the model: contact quantities as models of the time schemes,
-the guarded semismooth Newton of a frictional step, and the friction output.
+"""Coulomb friction in the steps of a run (docs/method.md section 8): the guarded
+semismooth Newton of a frictional step, and the friction output.
 
-- :class:`ContactTerms`: one contact quantity (the friction work, the friction
-  traction, the slip velocity, the contact activity) behind the
-  :class:`~nitsche_dolfinx.schemes.Model` interface, so that a scheme evaluates it
-  with its own normal force, slip velocity and threshold;
-- :class:`GuardedFriction`: the problem with its friction law guarded by a reference
-  state (docs/method.md section 8);
-- :class:`GuardedNewton`: the step's Newton solve on the guarded law;
+- :class:`GuardedNewton`: the step's Newton solve on the friction law guarded by a
+  reference state (:class:`~nitsche_dolfinx.contact_terms.GuardedFriction`);
 - :class:`FrictionOutput`: the work D^n of a step and the friction fields on Gamma_C.
 """
 
@@ -18,86 +13,11 @@ import ufl
 from dolfinx import fem
 from petsc4py import PETSc
 
-from .contact import positive_part
+from .contact_terms import ContactTerms, GuardedFriction, friction_terms
 from .diagnostics import BoundaryField, assemble_global
 from .solver import SNESSolver, SolverError
 
-__all__ = [
-    "FRICTION_QUANTITIES",
-    "ContactTerms",
-    "FrictionOutput",
-    "GuardedFriction",
-    "GuardedNewton",
-]
-
-
-class ContactTerms:
-    """A contact quantity of a problem behind the model interface of the time schemes
-    (no inertia, bulk or load), so that ``scheme.residual(terms, w, u, v, a, dt, test)``
-    evaluates it with the step's own normal force, slip velocity and threshold (hybrid:
-    Phi, v^{n+1/2} and mu_f Phi; theta and Newmark: [P_gamma(u^{n+1})]_+, v^{n+1} and
-    mu_f [P_gamma(u^{n+1})]_+).
-
-    ``term(contact, u, velocity, normal_force, test)`` is the form of one contact.
-    """
-
-    def __init__(self, contacts, term):
-        self.contacts = list(contacts)
-        self.term = term
-
-    def inertia(self, acceleration, v):
-        return 0
-
-    def load(self, v):
-        return 0
-
-    def operator(self, u, v, velocity=None):
-        forms = (
-            self.term(c, u, velocity, positive_part(c.projection(u)), v) for c in self.contacts
-        )
-        return sum(forms, 0)
-
-    def hybrid_operator(self, u_old, u_new, v, velocity=None):
-        form = 0
-        for contact in self.contacts:
-            u_mid, force = contact.hybrid_state(u_old, u_new)
-            form = form + self.term(contact, u_mid, velocity, force, v)
-        return form
-
-
-class GuardedFriction:
-    """A :class:`ContactProblem` whose friction law is guarded by a reference state
-    (:func:`~nitsche_dolfinx.contact.guarded_projection`), behind the model interface of
-    the time schemes. ``reference`` maps an expression of the unknown to its value at
-    the reference state."""
-
-    def __init__(self, problem, reference):
-        self.problem = problem
-        self.reference = reference
-
-    def inertia(self, acceleration, v):
-        return self.problem.inertia(acceleration, v)
-
-    def load(self, v):
-        return self.problem.load(v)
-
-    def operator(self, u, v, velocity=None):
-        return self.problem.operator(u, v, velocity, self.reference)
-
-    def hybrid_operator(self, u_old, u_new, v, velocity=None):
-        return self.problem.hybrid_operator(u_old, u_new, v, velocity, self.reference)
-
-
-#: Friction quantities of :meth:`ContactProblem.friction_terms`.
-FRICTION_QUANTITIES = {
-    # the friction term of the equation: tested with the step's increment, its work
-    "work": lambda c, u, velocity, force, v: c.friction_term(u, velocity, force, v),
-    # int lambda_t . v and int u'_t . v, for output on Gamma_C
-    "traction": lambda c, u, velocity, force, v: (
-        ufl.inner(c.friction_traction(u, velocity, force), v) * c.ds
-    ),
-    "slip_velocity": lambda c, u, velocity, force, v: ufl.inner(c.tangential(velocity), v) * c.ds,
-}
+__all__ = ["FrictionOutput", "GuardedNewton"]
 
 
 class FrictionOutput:
@@ -116,7 +36,7 @@ class FrictionOutput:
         sim, problem = stepper, stepper.problem
         self.comm = problem.mesh.comm
         self.increment = fem.Function(problem.V)
-        terms = problem.friction_terms("work")
+        terms = friction_terms(problem, "work")
         work = sim.scheme.residual(terms, sim.w, sim.u, sim.v, sim.a, dt, self.increment)
         self._work = fem.form(work)
         tags = tuple(tag for c, tag in zip(problem.contacts, problem.contact_tags) if c.frictional)
@@ -127,7 +47,7 @@ class FrictionOutput:
             ("slip_velocity", "slip_velocity"),
             ("friction_traction", "traction"),
         ):
-            terms = problem.friction_terms(quantity)
+            terms = friction_terms(problem, quantity)
             self.fields.append(
                 BoundaryField(
                     problem.mesh,
@@ -174,7 +94,7 @@ class GuardedNewton:
         def reference(expr):
             return ufl.replace(expr, at_reference)
 
-        self.model = problem.guarded_friction(reference)
+        self.model = GuardedFriction(problem, reference)
         activity = ContactTerms(
             problem.frictional_contacts,
             lambda c, u, velocity, force, v: c.guard_activity(u, velocity, force, reference),

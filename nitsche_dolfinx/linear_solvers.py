@@ -24,11 +24,11 @@ __all__ = [
     "AUTO_COURANT",
     "AUTO_GAMG_DOFS",
     "LINEAR_SOLVERS",
-    "InexactSolves",
     "LinearSolver",
     "choose_linear_solver",
     "contact_stiffness",
     "courant_number",
+    "direct_options",
     "linear_solver",
     "rigid_body_modes",
 ]
@@ -58,21 +58,56 @@ AUTO_CONTACT_STIFFNESS = 100.0
 AUTO_GAMG_DOFS = 200_000
 
 #: The Krylov options: the residual's norm unpreconditioned, as Newton's; the tolerances
-#: follow Newton's (:class:`~nitsche_dolfinx.solver.SNESSolver`, docs/method.md section 8).
+#: follow Newton's (:class:`~nitsche_dolfinx.newton.InexactSolves`, docs/method.md section 8).
 _KRYLOV_OPTIONS = {"ksp_norm_type": "unpreconditioned", "ksp_max_it": 1000}
+#: GMRES on a lagged factorisation (``preconditioner_lag`` > 0): right preconditioning, so
+#: that it minimises the true residual, to a tight tolerance of its own.
+LAGGED_OPTIONS = {
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_max_it": 200,
+    "ksp_rtol": 1e-12,
+    "ksp_atol": 1e-14,
+}
+_MUMPS: dict = {}
+
+
+def has_mumps(comm) -> bool:
+    """Whether PETSc factorises with MUMPS (asked once per process)."""
+    if "found" not in _MUMPS:
+        _MUMPS["found"] = compat.has_mumps(comm)
+    return _MUMPS["found"]
+
+
+def direct_options(comm) -> dict[str, Any]:
+    """The default linear solver, a direct LU: one factorisation, one solve (MUMPS's where
+    PETSc has it: it is parallel, and uses the BLAS)."""
+    options = {"ksp_type": "preonly", "pc_type": "lu"}
+    if has_mumps(comm):
+        options["pc_factor_mat_solver_type"] = "mumps"
+    return options
 
 
 @dataclass(frozen=True)
 class LinearSolver:
-    """A preset: PETSc options, the preconditioner lag of
-    :class:`~nitsche_dolfinx.solver.SNESSolver`, whether algebraic multigrid needs the
-    rigid-body near-nullspace, and a description for summaries."""
+    """A preset: PETSc options beyond the default direct solve (:func:`direct_options`), the
+    preconditioner lag (> 0: GMRES preconditioned by the last factorisation, renewed when a
+    solve needs more iterations than the lag), whether algebraic multigrid needs the
+    rigid-body near-nullspace (:meth:`near_nullspace_of`), and a description for
+    summaries."""
 
     name: str
     petsc_options: dict[str, Any] = field(default_factory=dict)
     preconditioner_lag: int = 0
     near_nullspace: bool = False
     description: str = ""
+
+    def near_nullspace_of(self, V) -> PETSc.NullSpace | None:
+        """The near-nullspace of a Jacobian on ``V``: the rigid-body modes when the preset
+        asks for it and ``V`` is a displacement space (None otherwise)."""
+        if not self.near_nullspace or V.dofmap.index_map_bs != V.mesh.geometry.dim:
+            return None
+        return PETSc.NullSpace().create(vectors=rigid_body_modes(V), comm=V.mesh.comm)
 
 
 def linear_solver(name: str, comm, problem=None, dt: float | None = None) -> LinearSolver:
@@ -94,13 +129,11 @@ def linear_solver(name: str, comm, problem=None, dt: float | None = None) -> Lin
             chosen.near_nullspace,
             f"auto: {chosen.description}",
         )
-    if name in ("lu", "lu-lagged"):
-        mumps = compat.has_mumps(comm)
-        options = {"pc_factor_mat_solver_type": "mumps"} if mumps else {}
-        package = "MUMPS" if mumps else "PETSc's own LU, serial only"
+    if name in ("lu", "lu-lagged"):  # the default direct solve (direct_options)
+        package = "MUMPS" if has_mumps(comm) else "PETSc's own LU, serial only"
         if name == "lu":
-            return LinearSolver(name, options, description=f"lu ({package})")
-        return LinearSolver(name, options, 10, description=f"lu-lagged ({package}, GMRES, lag 10)")
+            return LinearSolver(name, description=f"lu ({package})")
+        return LinearSolver(name, {}, 10, description=f"lu-lagged ({package}, GMRES, lag 10)")
     if name == "cg-jacobi":  # 3 x 3 blocks: products about three times faster than AIJ
         options = {"ksp_type": "cg", "pc_type": "jacobi", "mat_type": "baij", **_KRYLOV_OPTIONS}
         return LinearSolver(name, options, description="cg-jacobi (diagonal preconditioner)")
@@ -161,64 +194,6 @@ def choose_linear_solver(problem, dt: float) -> str:
     if index_map.size_global * problem.V.dofmap.index_map_bs < AUTO_GAMG_DOFS:
         return "lu"
     return "cg-gamg" if problem.symmetric_jacobian else "gmres-gamg"
-
-
-class InexactSolves:
-    """When the Krylov solve of a Newton iteration may stop (docs/method.md section 8).
-
-    The unpreconditioned residual r = F + J dx of a linear solve is the next Newton
-    residual wherever the contact status stays: a solve stops at :attr:`safety` times
-    the Newton solve's absolute tolerance (at 10^-12 of its right-hand side if that is
-    below round-off). A solve whose iterate will mostly move the contact set stops
-    at :attr:`forcing` times its right-hand side: the next solve, from a residual that
-    much smaller, ends the job. The last Newton solve tells which: solve k (from 0) of
-    a Newton solve with active facet (contact) terms is such a solve if the contact set
-    of the last Newton solve moved after its iterate k, and, from the second solve
-    on, the set moved at this one's iterate k too. Where the set stays (a step in free
-    flight, or in steady contact) every solve is a full one, so Newton takes the
-    iterations it takes with a direct solve.
-
-    Args:
-        enabled: Whether the solves are Krylov solves with these tolerances (False: a
-            direct solve, or tolerances of the user's; every solve counts as full).
-    """
-
-    #: The relative tolerance of a full solve whose absolute one is below round-off.
-    floor = 1.0e-12
-
-    def __init__(self, enabled: bool):
-        self.enabled = bool(enabled)
-        self.safety = 0.1
-        self.forcing = 1.0e-3
-        self._full: list[bool] = []  # per linear solve of the Newton solve under way
-        #: The last iterate (from 1) of the last Newton solve at which the contact set
-        #: moved, 0 if it did not after the first iterate (part of a checkpoint: a
-        #: restart then solves as the uninterrupted run).
-        self.last_move = 0
-
-    def start(self) -> None:
-        """A Newton solve begins."""
-        self._full = []
-
-    def finish(self, jacobian_changes: list[bool]) -> None:
-        """A Newton solve ended; ``jacobian_changes[k]``: whether the Jacobian at iterate
-        k differed from the one before (the contact set moved)."""
-        moves = [k for k, changed in enumerate(jacobian_changes) if k and changed]
-        self.last_move = max(moves, default=0)
-
-    def set(self, ksp, index: int, moved: bool, active: bool, atol: float) -> None:
-        """Set ``ksp``'s tolerances for solve ``index`` (from 0) of its Newton solve, whose
-        contact set ``moved`` at this iterate, with ``active`` facet terms, Newton's
-        absolute tolerance ``atol``."""
-        expected = self.last_move > index and (index == 0 or moved)
-        loose = self.enabled and active and expected
-        self._full.append(not loose)
-        if self.enabled:
-            ksp.setTolerances(rtol=self.forcing if loose else self.floor, atol=self.safety * atol)
-
-    def full(self, index: int) -> bool:
-        """Whether linear solve ``index`` of the Newton solve under way was a full one."""
-        return 0 <= index < len(self._full) and self._full[index]
 
 
 def rigid_body_modes(V) -> list[PETSc.Vec]:

@@ -22,7 +22,7 @@ from petsc4py import PETSc
 
 from . import compat
 
-__all__ = ["lumped_mass", "redistributed_mass"]
+__all__ = ["MassMatrix", "lumped_mass", "redistributed_mass"]
 
 
 def _accumulate(vec: PETSc.Vec) -> None:
@@ -99,3 +99,52 @@ def redistributed_mass(V, rho: float, contact_facets) -> PETSc.Vec:
         values = local.array.reshape(-1, bs)
         values[contact_node] = 0.0  # exactly zero, not round-off
     return mass
+
+
+class MassMatrix:
+    """The mass matrix of a problem as its steps take it: ``"consistent"`` (a form, in the
+    equations), or ``"lumped"`` or ``"redistributed"`` (a diagonal, added by the solver).
+
+    Args:
+        kind: One of :data:`~nitsche_dolfinx.parameters.MASS_MATRICES`.
+        V: The displacement space.
+        rho: The density.
+        contact_facets: A function giving the local facets of Gamma_C (None: no contact)
+            when the redistributed mass is first made (the obstacles are added after the
+            problem).
+    """
+
+    def __init__(self, kind: str, V, rho: float, contact_facets):
+        self.kind, self.V, self.rho = kind, V, float(rho)
+        self._contact_facets = contact_facets
+        self._diagonal = None
+
+    def diagonal(self, V=None) -> PETSc.Vec | None:
+        """The diagonal as a PETSc vector (None for the consistent mass); on ``V`` (another
+        numbering of the displacement space) when given."""
+        if self.kind == "consistent":
+            return None
+        if V is not None:
+            return self._make(V)
+        if self._diagonal is None:
+            self._diagonal = self._make(self.V)
+        return self._diagonal
+
+    def _make(self, V) -> PETSc.Vec:
+        if self.kind == "lumped":
+            return lumped_mass(V, self.rho)
+        facets = self._contact_facets()
+        if facets is None:
+            raise ValueError("mass='redistributed' needs an obstacle: add one first")
+        return redistributed_mass(V, self.rho, facets)
+
+    def massless_dofs(self, nodes: bool = False) -> np.ndarray:
+        """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass);
+        with ``nodes``, of their nodes (the blocks of the dof array)."""
+        diagonal = self.diagonal()
+        if diagonal is None:
+            return np.zeros(0, dtype=np.int32)
+        bs = self.V.dofmap.index_map_bs
+        with diagonal.localForm() as local:
+            mass = local.array.reshape(-1, bs)[:, 0] if nodes else local.array
+            return np.flatnonzero(mass == 0.0).astype(np.int32)

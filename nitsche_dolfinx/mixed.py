@@ -33,12 +33,13 @@ from .contact import positive_part
 from .diagnostics import MassMoments, Penetration, assemble_global
 from .dirichlet import DirichletDofs
 from .fields import ContactFields
+from .linear_solvers import LinearSolver
 from .material import von_mises
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
 from .solver import SNESSolver
-from .stepper import (
+from .stepping import (
     check_initial_gap,
     checkpoint_description,
     initial_acceleration,
@@ -101,6 +102,7 @@ class MixedStepper(TimeLevels):
         scheme,
         time_stepping: TimeStepping,
         petsc_options: dict[str, Any] | None = None,
+        linear_solver: LinearSolver | None = None,
     ):
         _check_mixed(problem, scheme)
         self.problem, self.scheme = problem, scheme
@@ -111,8 +113,9 @@ class MixedStepper(TimeLevels):
         bcs = self._boundary_conditions(V0, Q)
         diagonal = self._mass_diagonal_on_W()
         self.solver = SNESSolver(
-            self._residual(), self.x, bcs, petsc_options=petsc_options, mass_diagonal=diagonal
-        )
+            self._residual(), self.x, bcs, petsc_options=petsc_options, mass_diagonal=diagonal,
+            linear_solver=linear_solver,
+        )  # fmt: skip
         # energies: E = kinetic + elastic - L(u), no Nitsche correction
         contact, lam = self.contact, self._lambda
         self._energy_forms = [
@@ -236,7 +239,7 @@ class MixedStepper(TimeLevels):
             DirichletDofs(problem),
         )
 
-    def state(self) -> dict:
+    def state(self, columns=None) -> dict:
         """t, the energies (E = E_Theta here: no Nitsche term), the contact force
         -int lambda, the contact area (where lambda < 0) and the largest penetration; the
         momentum, the centre of mass and the totals of the one obstacle (``_1``)."""

@@ -1,7 +1,8 @@
 """The model: linear elastodynamics with contact, as terms added to a weak form.
 
 A :class:`ContactProblem` holds the mesh, the material and the terms of the
-weak form: Dirichlet conditions, loads, and one contact per rigid obstacle. It
+weak form: Dirichlet conditions, loads, one contact per rigid obstacle and two per
+contact pair (its halves). It
 offers them to the time schemes through the
 :class:`~nitsche_dolfinx.schemes.Model` interface (``inertia``, ``operator``,
 ``hybrid_operator``, ``load``); :class:`~nitsche_dolfinx.simulation.Simulation`
@@ -27,13 +28,11 @@ from mpi4py import MPI
 from . import compat
 from .contact import NitscheContact, PenaltyContact
 from .dirichlet import DirichletCondition, TimeDependentValue, as_array
-from .friction import FRICTION_QUANTITIES, ContactTerms, GuardedFriction
-from .mass import lumped_mass, redistributed_mass
+from .mass import MassMatrix
 from .material import Material, MaterialConstants, sigma
 from .meshes import cell_diameter
+from .pairs import CONTACT_PAIR_VARIANTS, PairContact, pair_halves
 from .parameters import (
-    CONTACT_METHODS,
-    MASS_MATRICES,
     Discretisation,
     NitscheParameters,
     check_gamma0,
@@ -41,18 +40,12 @@ from .parameters import (
     require_choice,
 )
 
-__all__ = [
-    "CONTACT_METHODS",
-    "MASS_MATRICES",
-    "ContactProblem",
-    "DirichletCondition",
-    "TimeDependentValue",
-    "as_array",
-]
+__all__ = ["ContactProblem"]
 
 
 class ContactProblem:
-    """Linear elastodynamics with Nitsche contact against rigid obstacles.
+    """Linear elastodynamics with Nitsche contact: against rigid obstacles
+    (:meth:`add_obstacle`) and between bodies (:meth:`add_contact_pair`).
 
     Args:
         mesh: The dolfinx mesh (1D, 2D or 3D).
@@ -123,9 +116,9 @@ class ContactProblem:
         self.degree = discretisation.degree
         self.method = nitsche.method
         self.mass = discretisation.mass
-        self._mass_diagonal = None
         self.gdim = mesh.geometry.dim
         self.V = compat.function_space(mesh, "Lagrange", self.degree, (self.gdim,))
+        self.mass_matrix = MassMatrix(self.mass, self.V, material.rho, self._contact_facets)
         self.gamma0 = fem.Constant(mesh, float(gamma0))
         self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
         self.friction = None if friction is None else fem.Constant(mesh, float(friction))
@@ -241,8 +234,6 @@ class ContactProblem:
         body on a rigid plane (docs/method.md section 11). Frictionless, Nitsche only.
         Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
-        from .pairs import CONTACT_PAIR_VARIANTS, PairContact, Pairing
-
         require_choice(variant, CONTACT_PAIR_VARIANTS, "variant", "contact pair variant")
         require(
             self.method == "nitsche" and self.friction is None,
@@ -251,33 +242,21 @@ class ContactProblem:
             "contact between bodies is frictionless Nitsche contact so far",
         )
         require(tag_a != tag_b, "tag_b", tag_b, f"a pair needs two surfaces, got {tag_a} twice")
-        facets = {tag: self.facets(tag) for tag in (tag_a, tag_b)}
         unit = None
         if direction is not None:
             unit = as_array(direction, (self.gdim,), "contact pair direction")
             length = float(np.linalg.norm(unit))
             require(length > 0, "direction", unit.tolist(), "the direction must not be zero")
             unit = unit / length
-        sides = [(tag_a, tag_b, unit)]
-        if variant == "unbiased":
-            sides.append((tag_b, tag_a, None if unit is None else -unit))
-        weight = 1.0 if variant == "biased" else 0.5
-        halves = []
-        for slave, master, along in sides:
-            pairing = Pairing(self.V, facets[slave], facets[master], along)
-            contact = PairContact(
-                pairing, self.ds(slave), self.stress, self.gamma_h, self.nitsche_theta, weight
-            )
-            self.contacts.append(contact)
-            self.contact_tags.append(slave)
-            halves.append(contact)
+        halves = pair_halves(self, tag_a, tag_b, variant, unit)
+        for half in halves:
+            self.contacts.append(half)
+            self.contact_tags.append(half.ds.subdomain_id())
         return halves
 
     @property
     def pairs(self) -> list:
         """The halves of the contact pairs (:meth:`add_contact_pair`)."""
-        from .pairs import PairContact
-
         return [contact for contact in self.contacts if isinstance(contact, PairContact)]
 
     def track_partners(self, *functions) -> None:
@@ -349,34 +328,19 @@ class ContactProblem:
     def mass_diagonal(self, V=None):
         """The lumped or redistributed mass matrix as a PETSc vector (its diagonal), or None
         for the consistent mass; on ``V`` (another numbering of the displacement space)
-        when given."""
-        if self.mass == "consistent":
-            return None
-        if V is not None:
-            return self._diagonal_mass(V)
-        if self._mass_diagonal is None:
-            self._mass_diagonal = self._diagonal_mass(self.V)
-        return self._mass_diagonal
+        when given (:class:`~nitsche_dolfinx.mass.MassMatrix`)."""
+        return self.mass_matrix.diagonal(V)
 
     def massless_dofs(self, nodes: bool = False) -> np.ndarray:
         """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass);
         with ``nodes``, of their nodes (the blocks of the dof array)."""
-        diagonal = self.mass_diagonal()
-        if diagonal is None:
-            return np.zeros(0, dtype=np.int32)
-        with diagonal.localForm() as local:
-            mass = (
-                local.array.reshape(-1, self.V.dofmap.index_map_bs)[:, 0] if nodes else local.array
-            )
-            return np.flatnonzero(mass == 0.0).astype(np.int32)
+        return self.mass_matrix.massless_dofs(nodes)
 
-    def _diagonal_mass(self, V):
-        if self.mass == "lumped":
-            return lumped_mass(V, self.material.rho)
+    def _contact_facets(self) -> np.ndarray | None:
+        """The local facets of every Gamma_C (None without contact)."""
         if not self.contact_tags:
-            raise ValueError("mass='redistributed' needs an obstacle: add one first")
-        facets = np.concatenate([self.facets(tag) for tag in self.contact_tags])
-        return redistributed_mass(V, self.material.rho, facets)
+            return None
+        return np.concatenate([self.facets(tag) for tag in self.contact_tags])
 
     @property
     def frictional(self) -> bool:
@@ -414,49 +378,10 @@ class ContactProblem:
             form = form + contact.hybrid_residual(u_old, u_new, v, velocity, reference)
         return form
 
-    def guarded_friction(self, reference):
-        """The problem with its friction law guarded by a reference state, behind the
-        model interface of the time schemes (see :class:`~nitsche_dolfinx.friction.GuardedNewton`);
-        ``reference`` maps an expression of the unknown to its value at that state."""
-        return GuardedFriction(self, reference)
-
-    def friction_terms(self, quantity: str = "work"):
-        """A friction quantity as a model with the interface of the time schemes, so that
-        the scheme supplies its slip velocity and threshold:
-
-        - ``"work"``: the friction term of the equation; with a Function ``du`` as the
-          test, ``scheme.residual(problem.friction_terms(), w, u, v, a, dt, du)`` is the
-          work of the step's friction force on the increment ``du``;
-        - ``"traction"``: ``int lambda_t . mu`` (lambda_t the friction traction);
-        - ``"slip_velocity"``: ``int u'_t . mu``.
-        """
-        if quantity not in FRICTION_QUANTITIES:
-            raise ValueError(
-                f"unknown friction quantity {quantity!r}; "
-                f"choose one of {', '.join(FRICTION_QUANTITIES)}"
-            )
-        return ContactTerms(self.frictional_contacts, FRICTION_QUANTITIES[quantity])
-
-    def contact_activity(self):
-        """The normal force tested by a cell-wise function, ``int_Gamma_C force q``, as a
-        model with the interface of the time schemes (the scheme supplies its force:
-        [P_gamma(u^{n+1})]_+ or Phi). It is zero on the cells where every contact term
-        is inactive: there the terms are affine and their Jacobian does not change."""
-        return ContactTerms(self.contacts, lambda c, u, velocity, force, q: force * q * c.ds)
-
-    def contact_parts(self, reference=None):
-        """The contact terms of :meth:`operator` as two models with the interface of the
-        time schemes: the terms affine in u whatever the contact, and those of the normal
-        force, which vanish with their derivatives wherever the force does (``reference``:
-        the guarded friction law, see :meth:`guarded_friction`)."""
-
-        def affine(contact, u, velocity, force, v):
-            return contact.affine_terms(u, v)
-
-        def forces(contact, u, velocity, force, v):
-            return contact.force_terms(u, velocity, force, v, reference)
-
-        return ContactTerms(self.contacts, affine), ContactTerms(self.contacts, forces)
+    @property
+    def has_loads(self) -> bool:
+        """Whether a body force or a traction was added (else L = 0)."""
+        return bool(self._body_forces or self._tractions)
 
     def load(self, v):
         """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""

@@ -1,6 +1,6 @@
 """The linear algebra of contact between two bodies (docs/method.md section 11): the
 partner-tested residual T^T G and the Jacobian's coupling terms, for
-:class:`~nitsche_dolfinx.solver.SNESSolver` (its ``coupling``).
+:class:`~nitsche_dolfinx.systems.AffineSystem` (its ``coupling``).
 
 With w~ = T w the partner of the unknown, the Jacobian of a pair is
 
@@ -25,7 +25,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
-from .assembly import ContactFacets, CouplingEntries, csr_pointers
+from .assembly import CouplingEntries, csr_pointers
+from .facet_jacobian import ContactFacets
 
 __all__ = ["PairCoupling"]
 

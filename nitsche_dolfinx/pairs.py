@@ -31,9 +31,8 @@ from ufl.algorithms import extract_coefficients
 
 from . import compat
 from .contact import NitscheContact
-from .pair_coupling import PairCoupling
 
-__all__ = ["CONTACT_PAIR_VARIANTS", "PairContact", "PairCoupling", "Pairing"]
+__all__ = ["CONTACT_PAIR_VARIANTS", "PairContact", "Pairing", "pair_halves"]
 
 #: ``"unbiased"``: each surface slave in turn with weight 1/2; ``"biased"``: the first
 #: surface is the slave, and only its stress enters.
@@ -363,3 +362,31 @@ class PairContact(NitscheContact):
 
     def area(self, u):
         return self.weight * super().area(u)
+
+
+def pair_halves(problem, tag_a: int, tag_b: int, variant: str, direction) -> list[PairContact]:
+    """The biased halves of a contact pair of ``problem`` (a
+    :class:`~nitsche_dolfinx.model.ContactProblem`) between the facets ``tag_a`` and
+    ``tag_b``: one, slave ``tag_a``, with weight 1 (``"biased"``), or one per surface
+    with weight 1/2 (``"unbiased"``); paired along the unit vector ``direction`` (from
+    ``tag_a`` towards ``tag_b``; reversed for the other half) or, None, with closest
+    points."""
+    facets = {tag: problem.facets(tag) for tag in (tag_a, tag_b)}
+    sides = [(tag_a, tag_b, direction)]
+    if variant == "unbiased":
+        sides.append((tag_b, tag_a, None if direction is None else -direction))
+    weight = 1.0 if variant == "biased" else 0.5
+    halves = []
+    for slave, master, along in sides:
+        pairing = Pairing(problem.V, facets[slave], facets[master], along)
+        halves.append(
+            PairContact(
+                pairing,
+                problem.ds(slave),
+                problem.stress,
+                problem.gamma_h,
+                problem.nitsche_theta,
+                weight,
+            )  # fmt: skip
+        )
+    return halves

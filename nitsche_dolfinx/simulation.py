@@ -21,8 +21,9 @@ from typing import Any
 from .agreement import FailureChannel
 from .checkpoint import CheckpointError, SavedState, load_state, save_state
 from .history import HISTORY_COLUMNS, History
+from .linear_solvers import LinearSolver
 from .linear_solvers import linear_solver as linear_solver_preset
-from .linear_solvers import rigid_body_modes
+from .mixed import MixedStepper
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
 from .parameters import OutputParameters, TimeStepping
@@ -30,7 +31,8 @@ from .progress import Progress
 from .schemes import TimeScheme
 from .signals import RunInterrupted, StopSignals
 from .solver import SolverError
-from .stepper import NitscheStepper, Stepper
+from .stepper import NitscheStepper
+from .stepping import Stepper
 
 __all__ = ["Simulation"]
 
@@ -112,29 +114,26 @@ class Simulation:
         chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
         if linear_solver == "auto" and chosen:
             linear_solver = None  # the user chose the linear solver: no preset
-        preset = None
-        if linear_solver is not None:
+        if linear_solver is None:  # the default direct solve with the user's options
+            preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
+        else:
             preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
-            petsc_options = {**preset.petsc_options, **(petsc_options or {})}
-            preconditioner_lag = preset.preconditioner_lag
         #: The linear solver in words, for summaries.
-        self.solver_description = preset.description if preset is not None else "default"
+        self.solver_description = preset.description
         if problem.method == "mixed":
-            from .mixed import MixedStepper
-
-            self.stepper: Stepper = MixedStepper(problem, scheme, time_stepping, petsc_options)
+            self.stepper: Stepper = MixedStepper(
+                problem, scheme, time_stepping, petsc_options, preset
+            )
         else:
             self.stepper = NitscheStepper(
                 problem,
                 scheme,
                 time_stepping,
                 petsc_options,
+                preset,
                 reuse_jacobian,
-                preconditioner_lag,
                 guard_friction,
             )
-        if preset is not None and preset.near_nullspace:
-            self.stepper.solver.set_near_nullspace(rigid_body_modes(problem.V))
         self.progress = progress
         self._probes: dict[str, Callable[[], float]] = {}
 
@@ -157,9 +156,11 @@ class Simulation:
         the current state: lambda_h of docs/method.md section 2, or the mixed multiplier."""
         return self.stepper.contact_pressure()
 
-    def state(self) -> dict[str, float]:
-        """The diagnostics of the current time level and the probes, the same on every rank."""
-        values = self.stepper.state()
+    def state(self, columns=None) -> dict[str, float]:
+        """The diagnostics of the current time level and the probes, the same on every rank;
+        the optional diagnostics (penetration, momentum, centre of mass, the totals of each
+        contact) only when ``columns`` name them (None: all)."""
+        values = self.stepper.state(columns)
         for name, probe in self._probes.items():
             values[name] = probe()
         return values
@@ -386,7 +387,7 @@ class _Run:
     def record(self, write: bool = True) -> None:
         """Add the current level to the history, and write it (rows, fields, progress)."""
         sim = self.simulation
-        values = sim.state()
+        values = sim.state(self.columns)
         self.history.append(values)
         if not write:
             return

@@ -1,231 +1,136 @@
-"""One time step of a :class:`~nitsche_dolfinx.model.ContactProblem`, and its state.
+"""One time step of a :class:`~nitsche_dolfinx.model.ContactProblem` with Nitsche or penalty
+contact, and its state.
 
-A stepper holds the state (u^n, v^n, a^n) at t^n and advances it by one step of
-its time scheme: one SNES solve for the scheme's unknown ``w``
-(docs/method.md section 3), then the kinematic update. It reports the
-diagnostics of the time level (:meth:`NitscheStepper.state`), the fields to write
-and the functions a checkpoint must hold.
-:class:`~nitsche_dolfinx.simulation.Simulation` drives any stepper of the
-:class:`Stepper` protocol through a run; :class:`NitscheStepper` steps the Nitsche
-and penalty methods, :class:`~nitsche_dolfinx.mixed.MixedStepper` the mixed one.
+A stepper holds the state (u^n, v^n, a^n) at t^n and advances it by one step of its time
+scheme: one SNES solve for the scheme's unknown ``w`` (docs/method.md section 3), then the
+kinematic update. It reports the diagnostics of the time level
+(:meth:`NitscheStepper.state`), the fields to write and the functions a checkpoint must
+hold. :class:`~nitsche_dolfinx.simulation.Simulation` drives any stepper of the
+:class:`~nitsche_dolfinx.stepping.Stepper` protocol through a run;
+:class:`~nitsche_dolfinx.mixed.MixedStepper` steps the mixed method.
 """
 
 from __future__ import annotations
 
 import time
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 
 from . import compat
+from .contact_terms import ContactTerms, contact_activity, contact_parts
 from .diagnostics import Diagnostics
-from .dirichlet import DirichletDofs, as_array
+from .dirichlet import DirichletDofs
 from .fields import ContactFields, OnBoundary
-from .friction import ContactTerms, FrictionOutput, GuardedNewton
+from .friction import FrictionOutput, GuardedNewton
+from .linear_solvers import LinearSolver
 from .material import von_mises
 from .model import ContactProblem
+from .pair_coupling import PairCoupling
 from .parameters import ParameterError, TimeStepping, require
+from .petsc_snes import SolverSettings
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
+from .stepping import (
+    UncontrolledStep,
+    check_initial_gap,
+    check_pairs_apart,
+    checkpoint_description,
+    energy_controlled,
+    initial_acceleration,
+    interpolate_initial,
+    massless_velocity,
+)
+from .systems import AffineSystem, FormSystem, StepForms
 from .timelevels import TimeLevels
 
-__all__ = [
-    "ENERGY_CONTROL",
-    "NitscheStepper",
-    "Stepper",
-    "UncontrolledStep",
-    "check_initial_gap",
-    "initial_acceleration",
-    "interpolate_initial",
-    "massless_velocity",
-]
+__all__ = ["NitscheStepper", "step_solver"]
 
 
-#: The least share of the kinetic plus elastic energy that E_Theta - potential must keep at
-#: a new level (docs/method.md section 8). Measured: at least 0.9999 in the healthy runs
-#: of the package (ring, friction block, every scheme); a P2 box whose gamma0 is beyond
-#: the stability limit falls to 0.67, then 0.07, while E grows without bound.
-ENERGY_CONTROL = 0.5
+def step_solver(
+    problem: ContactProblem, scheme: TimeScheme, state: tuple, bcs, settings: SolverSettings,
+    reuse_jacobian: bool = True, model=None, dirichlet_dofs=(), bc_values=None,
+) -> SNESSolver:  # fmt: skip
+    """The SNES of a step's equation F(w) = 0 (docs/method.md section 8).
 
-
-class UncontrolledStep(SolverError):
-    """A step whose Newton solve converged to a state that E_Theta no longer controls
-    (E_Theta - potential < :data:`ENERGY_CONTROL` (kinetic + elastic)), or whose
-    diagnostics are not finite: the discrete problem has left its stability range.
-
-    ``cut_may_help`` is False for lost energy control: it is a matter of gamma0 and the
-    mesh, not of the step size.
+    Args:
+        problem: The problem.
+        scheme: The time scheme, which writes F from the problem's terms.
+        state: ``(w, u, v, a, dt)``: the unknown, the state at t^n, the step (a Constant).
+        bcs: The Dirichlet conditions on ``w``.
+        settings: The solver's :class:`~nitsche_dolfinx.petsc_snes.SolverSettings`.
+        reuse_jacobian: Solve the :class:`~nitsche_dolfinx.systems.AffineSystem` (the bulk
+            is linear elastodynamics: its cell terms are affine in the unknown, and only
+            the contact terms on Gamma_C change the Jacobian); False: assemble every
+            Jacobian in full.
+        model: The model whose terms F holds (``problem``, or its friction law guarded by
+            :class:`~nitsche_dolfinx.friction.GuardedNewton`).
+        dirichlet_dofs: The local indices of the Dirichlet dofs (for contact pairs).
+        bc_values: The Function whose values ``bcs`` give the Dirichlet dofs, if any.
     """
-
-    def __init__(self, values: dict[str, float], iterations: int, hint: str):
-        self.values = values
-        self.cut_may_help = not _finite_values(values)
-        self._hint_text = hint
-        super().__init__(0, iterations, float("nan"))
-        self.reason_name = "NOT_FINITE" if self.cut_may_help else "ENERGY_NOT_CONTROLLED"
-
-    def _message(self) -> str:
-        where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
-        values = self.values
-        if self.cut_may_help:
-            return f"{where}the converged state is not finite (E = {values['energy']:.6g})"
-        kinetic_elastic = values["kinetic"] + values["elastic"]
-        controlled = values["energy_theta"] - values["potential"]
-        return (
-            f"{where}E_Theta no longer controls the energy: E_Theta - potential = "
-            f"{controlled:.6g} for kinetic + elastic = {kinetic_elastic:.6g} (E = "
-            f"{values['energy']:.6g}); {self._hint_text}"
-        )
-
-
-def _finite_values(values: dict[str, float]) -> bool:
-    return all(np.isfinite(value) for key, value in values.items() if key != "penetration_max")
-
-
-def energy_controlled(values: dict[str, float]) -> bool:
-    """Whether the diagnostics of a level are finite and E_Theta - potential keeps at least
-    :data:`ENERGY_CONTROL` of kinetic + elastic (docs/method.md section 8)."""
-    if not _finite_values(values):
-        return False
-    kinetic_elastic = values["kinetic"] + values["elastic"]
-    return values["energy_theta"] - values["potential"] >= ENERGY_CONTROL * kinetic_elastic
+    model = problem if model is None else model
+    w, u, v, a, _ = state
+    test = ufl.TestFunction(problem.V)
+    F = scheme.residual(model, *state, test)
+    if not reuse_jacobian:
+        require(
+            not problem.pairs, "reuse_jacobian", reuse_jacobian,
+            "contact between bodies assembles the Jacobian by parts: keep True",
+        )  # fmt: skip
+        system = FormSystem(F, w, bcs, mass_diagonal=problem.mass_diagonal())
+        return SNESSolver.for_system(system, settings)
+    activity, facet_parts = None, None
+    if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
+        cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
+        activity = scheme.residual(contact_activity(problem), *state, cellwise)
+        facet_parts = [
+            scheme.residual(part, *state, test)
+            for part in contact_parts(problem, getattr(model, "reference", None))
+        ]
+    coupling = _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs)
+    forms = StepForms(F, None, activity, facet_parts, (u, v, a), coupling)
+    system = AffineSystem(forms, w, bcs, problem.mass_diagonal(), settings.matrix_type)
+    if bc_values is not None:
+        system.prescribe(dirichlet_dofs, bc_values)
+    return SNESSolver.for_system(system, settings)
 
 
-class Stepper(Protocol):
-    """What :class:`~nitsche_dolfinx.simulation.Simulation` needs of a stepper.
-
-    Attributes: ``problem``, ``scheme``, ``comm``; the clock of
-    :class:`~nitsche_dolfinx.timelevels.TimeLevels` (``dt``, ``t``, ``step_index``,
-    ``next_time()``, ``finished``, ...); the state ``u``, ``v``, ``a`` (Functions on
-    ``problem.V``), and ``newton_iterations`` and ``step_seconds`` of the last step.
-    """
-
-    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
-        """Advance one step to ``t_new`` (default: the next nominal level), a step halved
-        ``cuts`` times; return the Newton iterations. On a SolverError the state is
-        that of before the step."""
-
-    def state(self) -> dict[str, float]:
-        """The diagnostics of the current time level, identical on every rank."""
-
-    def output_fields(self) -> dict:
-        """``{name: (source, value shape)}`` for the field output: a source is a Function, a
-        UFL expression or an object with ``evaluate(target)`` (see
-        :class:`~nitsche_dolfinx.output.SolutionWriter`)."""
-
-    def checkpoint_functions(self) -> dict[str, fem.Function]:
-        """Everything the next step depends on, by name."""
-
-    def describe(self) -> dict[str, Any]:
-        """What a checkpoint must share with the stepper that reloads it."""
-
-    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
-        """Move to a time level whose functions were just loaded (``saved``: the
-        checkpoint's description)."""
-
-
-def massless_velocity(massless, u, u1, v1, a1, dt) -> None:
-    """At massless dofs (redistributed mass) the scheme's velocity update means nothing:
-    the node follows its constraint. Report the step's mean velocity there instead."""
-    if massless.size:
-        v1[massless] = (u1[massless] - u[massless]) / dt
-        a1[massless] = 0.0
-
-
-def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
-    """Set ``target`` to an initial value: None (zero), a Function, a function of the
-    coordinates returning (gdim, N) or (N,) values, or a constant vector."""
-    if value is None:
-        target.x.array[:] = 0.0
-    elif isinstance(value, fem.Function):
-        target.interpolate(value)
-    elif callable(value):
-        target.interpolate(lambda x: np.asarray(value(x), dtype=float).reshape(gdim, -1))
-    else:
-        array = as_array(value, (gdim,), "initial value")
-        target.interpolate(lambda x: np.tile(array[:, None], (1, x.shape[1])))
-    target.x.scatter_forward()
-    finite = target.function_space.mesh.comm.allreduce(
-        bool(np.all(np.isfinite(target.x.array))), op=MPI.LAND
-    )
-    require(finite, f"initial {target.name}", "NaN or inf", "the initial values must be finite")
-
-
-def check_initial_gap(penetration: float, mesh) -> None:
-    """Refuse a body that starts inside an obstacle: ``penetration`` is the largest
-    u_n - g on Gamma_C at t = 0, allowed up to round-off of the mesh's extent."""
-    x = mesh.geometry.x
-    extent = mesh.comm.allreduce(float(np.abs(x).max(initial=0.0)), op=MPI.MAX)
-    if penetration > 1e-8 * max(extent, 1e-300):
-        raise ParameterError(
-            "initial_displacement",
-            penetration,
-            "it must start outside (u_n <= g on Gamma_C)",
-            label=f"initial displacement: the body starts {penetration:.3g} inside an obstacle",
-        )
-
-
-def check_pairs_apart(problem: ContactProblem, u: fem.Function) -> None:
-    """Refuse contact pairs pressed together at t = 0 (a positive contact force): the
-    initial acceleration leaves out the reaction on the master side."""
+def _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs) -> PairCoupling | None:
+    """The terms of contact between bodies beyond the UFL forms (None without pairs): each
+    pair's partner-tested residual, written by the scheme like its own terms."""
     if not problem.pairs:
-        return
-    problem.update_partners()
-    force = sum(pair.force(u) for pair in problem.pairs)
-    value = problem.mesh.comm.allreduce(fem.assemble_scalar(fem.form(force)), op=MPI.SUM)
-    if value > 0:
+        return None
+
+    def partner_term(pair, u, velocity, force, v):
+        return pair.partner_term(force, v)
+
+    residuals = [
+        scheme.residual(ContactTerms([pair], partner_term), *state, test) for pair in problem.pairs
+    ]
+    return PairCoupling(
+        problem.pairs, F, residuals, state[0], dirichlet_dofs, problem.symmetric_jacobian
+    )
+
+
+def _check_scheme(problem: ContactProblem, scheme: TimeScheme, dt: float) -> None:
+    """Refuse the schemes that cannot step ``problem``."""
+    if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
         raise ParameterError(
-            "initial_displacement",
-            value,
-            "the bodies of a contact pair must start apart",
-            label=f"initial state: the bodies of a contact pair press on each other "
-            f"(contact force {value:.3g})",
+            "mass",
+            problem.mass,
+            "not with the hybrid scheme: the massless contact nodes are then left to "
+            "alternate around the obstacle (measured: E grows 48-fold on the bar); use "
+            "the redistributed mass with Crank-Nicolson, theta or Newmark",
         )
-
-
-def initial_acceleration(
-    problem: ContactProblem, a: fem.Function, stiffness, dirichlet, petsc_options=None
-) -> None:
-    """Solve M a0 = L(0) - ``stiffness`` for ``a`` (docs/method.md section 3), with a0 = 0
-    at the Dirichlet dofs (``dirichlet``, a :class:`DirichletDofs`) and at the massless
-    dofs of a redistributed mass.
-
-    ``stiffness(test)`` is the operator at u0 tested with ``test``."""
-    V = problem.V
-    test = ufl.TestFunction(V)
-    F0 = problem.inertia(a, test) + stiffness(test) - problem.load(test)
-    zero = fem.Function(V)
-    bcs = dirichlet.boundary_conditions(zero)
-    diagonal = problem.mass_diagonal()
-    if diagonal is not None:  # massless nodes (redistributed mass): no acceleration of their own
-        bcs.append(fem.dirichletbc(zero, problem.massless_dofs(nodes=True)))
-    a.x.array[:] = 0.0
-    solver = SNESSolver(F0, a, bcs, petsc_options=petsc_options, mass_diagonal=diagonal)
-    solver.solve()
-    solver.destroy()
-
-
-def checkpoint_description(stepper) -> dict[str, Any]:
-    """The description a checkpoint of any stepper shares with the run that reloads it."""
-    problem = stepper.problem
-    V = problem.V
-    friction = problem.friction
-    return {
-        "friction": 0.0 if friction is None else float(np.asarray(friction.value)),
-        "dofs": int(V.dofmap.index_map.size_global * V.dofmap.index_map_bs),
-        "dt": stepper.dt,
-        "scheme": stepper.scheme.describe(),
-        "method": problem.method,
-        "mass": problem.mass,
-        "degree": problem.degree,
-        "gamma0": float(np.asarray(problem.gamma0.value)),
-        "gamma0_scaling": problem.gamma0_scaling,
-        "nitsche_theta": float(np.asarray(problem.nitsche_theta.value)),
-        "functions": sorted(stepper.checkpoint_functions()),
-    }
+    if problem.dirichlet and scheme.displacement_coefficient(dt) == 0.0:
+        raise ParameterError(
+            "scheme",
+            scheme.describe(),
+            "an explicit scheme (theta = 0, Newmark beta = 0) gives u^{n+1} before the "
+            "step's solve, so it cannot impose Dirichlet values; use theta > 0 or beta > 0",
+        )
 
 
 class NitscheStepper(TimeLevels):
@@ -245,25 +150,11 @@ class NitscheStepper(TimeLevels):
         scheme: TimeScheme,
         time_stepping: TimeStepping,
         petsc_options: dict[str, Any] | None = None,
+        linear_solver: LinearSolver | None = None,
         reuse_jacobian: bool = True,
-        preconditioner_lag: int = 0,
         guard_friction: bool = True,
     ):
-        if problem.mass == "redistributed" and isinstance(scheme, HybridScheme):
-            raise ParameterError(
-                "mass",
-                problem.mass,
-                "not with the hybrid scheme: the massless contact nodes are then left to "
-                "alternate around the obstacle (measured: E grows 48-fold on the bar); use "
-                "the redistributed mass with Crank-Nicolson, theta or Newmark",
-            )
-        if problem.dirichlet and scheme.displacement_coefficient(time_stepping.dt) == 0.0:
-            raise ParameterError(
-                "scheme",
-                scheme.describe(),
-                "an explicit scheme (theta = 0, Newmark beta = 0) gives u^{n+1} before the "
-                "step's solve, so it cannot impose Dirichlet values; use theta > 0 or beta > 0",
-            )
+        _check_scheme(problem, scheme, time_stepping.dt)
         self.problem, self.scheme = problem, scheme
         self._start_levels(time_stepping)
         self.comm = problem.mesh.comm
@@ -279,9 +170,20 @@ class NitscheStepper(TimeLevels):
         self._w_bc = fem.Function(V)  # the unknown's values at the Dirichlet dofs
         bcs = self._dirichlet.boundary_conditions(self._w_bc)
         self._dt = dt_c = fem.Constant(problem.mesh, self.dt)  # the size of the step
-        self.solver = self._step_solver(
-            dt_c, bcs, petsc_options, reuse_jacobian, preconditioner_lag, guard_friction
-        )
+        settings = SolverSettings(
+            self.comm, petsc_options, linear_solver,
+            linear_solver.preconditioner_lag if linear_solver and reuse_jacobian else 0,
+            problem.symmetric_jacobian,
+        )  # fmt: skip
+        state = (self.w, self.u, self.v, self.a, dt_c)
+        self._guarded = None
+        if problem.frictional and guard_friction:
+            self._guarded = GuardedNewton(problem, scheme, state)
+        model = problem if self._guarded is None else self._guarded.model
+        self.solver = step_solver(
+            problem, scheme, state, bcs, settings, reuse_jacobian, model,
+            self._dirichlet.dofs, self._w_bc,
+        )  # fmt: skip
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
         self._energy_before = None  # E_Theta^n of the last step
@@ -290,63 +192,9 @@ class NitscheStepper(TimeLevels):
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
         self._contact_fields = None  # ContactFields, once the output asks for them
         self._massless = problem.massless_dofs()
-        self._initialize(petsc_options)
+        self._initialize(petsc_options, linear_solver)
 
-    def _step_solver(self, dt_c, bcs, petsc_options, reuse_jacobian, lag, guard_friction):
-        """The SNES of the step's equation F(w) = 0 (docs/method.md section 8)."""
-        problem, scheme = self.problem, self.scheme
-        state = (self.w, self.u, self.v, self.a, dt_c)
-        self._guarded, model = None, problem
-        if problem.frictional and guard_friction:
-            self._guarded = GuardedNewton(problem, scheme, state)
-            model = self._guarded.model
-        test = ufl.TestFunction(problem.V)
-        F = scheme.residual(model, *state, test)
-        activity, facet_parts = None, None
-        if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
-            cellwise = ufl.TestFunction(compat.function_space(problem.mesh, "DG", 0))
-            activity = scheme.residual(problem.contact_activity(), *state, cellwise)
-            facet_parts = [
-                scheme.residual(part, *state, test)
-                for part in problem.contact_parts(getattr(model, "reference", None))
-            ]
-        # The bulk is linear elastodynamics: its terms (the cell integrals) are affine in
-        # the unknown, and only the contact terms on Gamma_C change the Jacobian.
-        return SNESSolver(
-            F,
-            self.w,
-            bcs,
-            petsc_options=petsc_options,
-            affine_cell_terms=reuse_jacobian,
-            mass_diagonal=problem.mass_diagonal(),
-            preconditioner_lag=lag if reuse_jacobian else 0,
-            facet_activity=activity,
-            symmetric=problem.symmetric_jacobian,
-            coupling=self._pair_coupling(F, state, test, bcs),
-            cell_state=(self.u, self.v, self.a) if reuse_jacobian else (),
-            facet_parts=facet_parts,
-        )
-
-    def _pair_coupling(self, F, state, test, bcs):
-        """The terms of contact between bodies beyond the UFL forms (None without pairs):
-        each pair's partner-tested residual, written by the scheme like its own terms."""
-        problem = self.problem
-        if not problem.pairs:
-            return None
-        from .pairs import PairCoupling
-
-        def partner_term(pair, u, velocity, force, v):
-            return pair.partner_term(force, v)
-
-        residuals = [
-            self.scheme.residual(ContactTerms([pair], partner_term), *state, test)
-            for pair in problem.pairs
-        ]
-        return PairCoupling(
-            problem.pairs, F, residuals, self.w, self._dirichlet.dofs, problem.symmetric_jacobian
-        )
-
-    def _initialize(self, petsc_options) -> None:
+    def _initialize(self, petsc_options, linear_solver) -> None:
         """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""
         problem, gdim = self.problem, self.problem.gdim
         interpolate_initial(self.u, problem.initial_displacement, gdim)
@@ -361,11 +209,14 @@ class NitscheStepper(TimeLevels):
             lambda test: problem.operator(self.u, test, self.v),
             self._dirichlet,
             petsc_options,
+            linear_solver,
         )
 
-    def state(self) -> dict[str, float]:
-        """Diagnostics at the current time level, identical on every rank."""
-        values = {"t": self.t, **self._diagnostics()}
+    def state(self, columns=None) -> dict[str, float]:
+        """Diagnostics at the current time level, identical on every rank: those of every
+        level, and the optional ones (:class:`~nitsche_dolfinx.diagnostics.Diagnostics`)
+        that ``columns`` name (None: all)."""
+        values = {"t": self.t, **self._diagnostics(columns)}
         values["friction_dissipation"] = self.friction_dissipation
         values["energy_balance_residual"] = (
             0.0
@@ -387,11 +238,12 @@ class NitscheStepper(TimeLevels):
         self._set_step_size(dt)
         problem.set_time(scheme.equation_time(self.t, dt))
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
-        if self._dirichlet:
-            u_free, _, _ = scheme.kinematics(u, v, a, 0.0, dt)
-            target = u_free.copy()
-            self._dirichlet.set_values(target, t_new)
-            self._w_bc.x.array[:] = (target - u_free) / scheme.displacement_coefficient(dt)
+        if self._dirichlet:  # the unknown's values that give u^{n+1} its prescribed ones
+            dofs = self._dirichlet.prescribed
+            u_free, _, _ = scheme.kinematics(u[dofs], v[dofs], a[dofs], 0.0, dt)
+            prescribed = self._dirichlet.values(t_new)
+            coefficient = scheme.displacement_coefficient(dt)
+            self._w_bc.x.array[dofs] = (prescribed - u_free) / coefficient
         self._energy_before = self._energy_theta()
         self.w.x.array[:] = a  # initial guess: the last acceleration
         try:
@@ -419,10 +271,14 @@ class NitscheStepper(TimeLevels):
             self._dt.value = dt
             self.solver.update_constant_terms()
 
-    def _diagnostics(self) -> dict[str, float]:
-        """The diagnostics of the current level, computed once per level."""
-        if self._diagnostics_cache is None or self._diagnostics_cache[0] != self.step_index:
-            self._diagnostics_cache = (self.step_index, self.diagnostics.compute())
+    def _diagnostics(self, columns=()) -> dict[str, float]:
+        """The diagnostics of the current level (the optional ones that ``columns`` name;
+        None: all), each computed once per level."""
+        cached = self._diagnostics_cache
+        if cached is None or cached[0] != self.step_index:
+            self._diagnostics_cache = (self.step_index, self.diagnostics.compute(columns))
+        else:
+            self.diagnostics.complete(cached[1], columns)
         return self._diagnostics_cache[1]
 
     def _energy_theta(self) -> float:
@@ -433,7 +289,7 @@ class NitscheStepper(TimeLevels):
         """Refuse the new state just written to u, v, a if E_Theta does not control it
         (:func:`energy_controlled`): u^n, v^n, a^n are put back and
         :class:`UncontrolledStep` raised."""
-        values = self.diagnostics.compute()
+        values = self.diagnostics.compute(columns=())
         if energy_controlled(values):
             self._diagnostics_cache = (self.step_index + 1, values)
             return

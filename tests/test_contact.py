@@ -87,12 +87,12 @@ def test_gamma0_and_theta_change_without_recompiling():
     """gamma0 and Theta are fem.Constants: the compiled forms see new values."""
     problem = bar_problem(nx=10, gamma0=1e-3)
     sim = Simulation(problem, HybridScheme(), dt=0.01, t_end=0.01)
-    form = sim.solver.F_forms.form
+    form = sim.solver.system.F_forms.form
     forms_before = id(form)
     sim.u.interpolate(lambda x: (-0.01 * (1 - x[0])).reshape(1, -1))  # penetrating
     b1 = fem.petsc.assemble_vector(form).norm()
     problem.gamma0.value = 1e-2
     problem.nitsche_theta.value = -1.0
     b2 = fem.petsc.assemble_vector(form).norm()
-    assert id(sim.solver.F_forms.form) == forms_before
+    assert id(sim.solver.system.F_forms.form) == forms_before
     assert not np.isclose(b1, b2)

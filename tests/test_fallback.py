@@ -18,7 +18,7 @@ from nitsche_dolfinx import (
 )
 from nitsche_dolfinx import stepper as stepper_module
 from nitsche_dolfinx.cases import bar_simulation, block_problem, impact_problem
-from nitsche_dolfinx.stepper import UncontrolledStep
+from nitsche_dolfinx.stepping import UncontrolledStep
 
 
 def test_t_end_is_reached_exactly_by_a_shorter_last_step():
@@ -66,7 +66,7 @@ def test_a_step_that_cannot_converge_stops_the_run_after_the_cuts(tmp_path):
     SolverError names the last step tried (tau / 2^2 here), and the last converged level is
     the checkpoint."""
     simulation = _disk(t_end=1.0, max_step_cuts=2)
-    simulation.solver.user_atol = 1e-300
+    simulation.solver.convergence.user_atol = 1e-300
     simulation.solver.snes.setTolerances(rtol=1e-300, max_it=1)
     with pytest.raises(SolverError) as info:
         simulation.run(out=str(tmp_path))
@@ -127,7 +127,7 @@ def test_lagged_factorisation_is_refreshed_when_gmres_fails():
     lagged.run()
     direct = _disk(t_end=11.0)
     direct.run()
-    assert lagged.solver.preconditioner_updates > 2
+    assert lagged.solver.petsc.preconditioner_updates > 2
     scale = np.abs(direct.u.x.array).max()
     assert np.abs(lagged.u.x.array - direct.u.x.array).max() < 1e-8 * scale
 

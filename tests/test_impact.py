@@ -7,7 +7,14 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, compat
+from nitsche_dolfinx import (
+    CrankNicolson,
+    HybridScheme,
+    Simulation,
+    compat,
+    facet_jacobian,
+    jacobian_sum,
+)
 from nitsche_dolfinx.assembly import Forms
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.history import STATE_COLUMNS
@@ -101,12 +108,12 @@ def _disk_steps(steps, activity=True, mesh_size=8.0, **options):
     problem = impact_problem(dim=2, mesh_size=mesh_size)
     simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=steps * 0.1, **options)
     if not activity:
-        simulation.solver.skip_inactive_facets = False  # assemble at every evaluation
+        simulation.solver.system.skip_inactive_facets = False  # at every evaluation
     counts = []
     for _ in range(steps):
         simulation.step()
         solver = simulation.solver
-        counts.append((solver.facet_jacobian_assemblies, solver.preconditioner_updates))
+        counts.append((solver.facet_jacobian_assemblies, solver.petsc.preconditioner_updates))
     return simulation, np.array(counts)
 
 
@@ -119,58 +126,65 @@ def test_contact_jacobian_assembled_only_in_contact():
     assert fall[:, 0].max() == 1 and fall[:, 1].max() == 1
     assert counts[-1, 0] > counts[95, 0] + 10  # one per Newton iteration in contact
     reference, _ = _disk_steps(120, activity=False)
-    assert reference.solver.facet_jacobian_assemblies == reference.solver.jacobian_evaluations
+    assert reference.solver.facet_jacobian_assemblies == reference.solver.petsc.jacobian_evaluations
     for name in ("u", "v"):
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
         assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
 
 
 @pytest.mark.mpi
-def test_jacobian_rows_set_again_are_the_sum_in_full():
+def test_jacobian_rows_set_again_are_the_sum_in_full(monkeypatch):
     """After a sum in full, only the rows of the Jacobian where B changed are set again,
     also when B is made again on other facets (the contact growing, shrinking, ending):
     at every Newton iterate the Jacobian is K_bc + B summed in full, to the bit."""
+    monkeypatch.setattr(facet_jacobian, "RESTRICTED_FROM", 0)  # B near the contact
+    monkeypatch.setattr(jacobian_sum, "SUM_IN_FULL_BELOW", 0)  # by rows, however small
     problem = impact_problem(dim=2, mesh_size=2.0)
     simulation = Simulation(problem, HybridScheme(), dt=0.1, t_end=29.0)
     while simulation.t < 24.95:
         simulation.step()
     solver = simulation.solver
-    split, checks = solver._split, []
+    system, checks = solver.system, []
+    generations = [system.facet.generation]
 
     def check(snes, iteration, norm):  # A and B: those of the last Jacobian evaluation
-        summed = split.K_bc.copy()
-        summed.axpy(1.0, split.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        checks.append(summed.equal(solver._A))
+        summed = system.K_bc.copy()
+        summed.axpy(1.0, system.facet.B, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        checks.append(summed.equal(snes.getJacobian()[0]))
         summed.destroy()
+        generations.append(system.facet.generation)
 
     solver.snes.setMonitor(check)
     simulation.run()  # the contact ends at t ~ 27.8
     assert simulation.state()["contact_force"] == 0.0
     assert len(checks) > 40 and all(checks)
+    assert generations[-1] > generations[0]  # B was made again on other facets
 
 
-def test_contact_jacobian_near_the_contact_is_the_whole_one():
+def test_contact_jacobian_near_the_contact_is_the_whole_one(monkeypatch):
     """In contact, the force terms' Jacobian B lives on the facets near the contact and
     is assembled on those of the cells in contact only: it equals its assembly on all
     of Gamma_C to the bit, and the Jacobian summed from B and the constant terms equals
     J assembled as one form."""
+    monkeypatch.setattr(facet_jacobian, "RESTRICTED_FROM", 0)  # B near the contact
     simulation, _ = _disk_steps(105, mesh_size=2.0)
     solver = simulation.solver
-    split = solver._split
-    split.facet_jacobian_changed()  # at the coefficients of now, near the contact
-    facets = split._facets
+    system = solver.system
+    facet = system.facet
+    facet.update()  # at the coefficients of now, near the contact
+    facets = facet.facets
     assert 0 < facets.needed.sum() < facets.current.sum() < len(facets.current) // 2
-    assert split._facet_terms() is not split.J_facet  # assembled on the needed facets
-    whole = split.B.duplicate()
+    assert facet.on_contact() is not facet.forms  # assembled on the needed facets
+    whole = facet.B.duplicate()
     whole.zeroEntries()
-    Forms(split._J_all.ufl).assemble_matrix(whole, split.bcs, 0.0)  # on every facet
+    Forms(facet.all_forms.ufl).assemble_matrix(whole, system.bcs, 0.0)  # on every facet
     whole.assemble()
-    assert whole.norm() > 0 and whole.equal(split.B)
-    A = solver._A
-    split.sum_into(A)
+    assert whole.norm() > 0 and whole.equal(facet.B)
+    A = solver.snes.getJacobian()[0]
+    system.sum.sum_into(A)
     J = A.duplicate()
     J.zeroEntries()
-    solver.J_forms.assemble_matrix(J, solver.bcs)
+    system.J_forms.assemble_matrix(J, system.bcs)
     J.assemble()
     J.axpy(-1.0, A)
     assert J.norm() <= 1e-13 * A.norm()

@@ -96,7 +96,7 @@ def test_a_failed_krylov_solve_is_done_again_by_a_factorisation():
         petsc_options={"ksp_max_it": 2},
     )
     krylov = simulation.run()
-    assert simulation.solver.direct_fallbacks == 1
+    assert simulation.solver.petsc.direct_fallbacks == 1
     assert simulation.solver.snes.getKSP().getType() == "preonly"
     lu = Simulation(
         impact_problem(dim=2, mesh_size=8.0), HybridScheme(), dt=0.1, t_end=11.0, linear_solver="lu"
