@@ -18,9 +18,10 @@ from petsc4py import PETSc
 
 from . import compat
 from .collective import max_over_ranks, sum_over_ranks
-from .history import centre_of_mass_columns, contact_columns, momentum_columns
+from .history import centre_of_mass_columns, momentum_columns
 
 __all__ = [
+    "ON_REQUEST",
     "BoundaryAverage",
     "BoundaryField",
     "Diagnostics",
@@ -29,6 +30,10 @@ __all__ = [
     "PointValue",
     "assemble_global",
 ]
+
+
+#: The diagnostics computed only when a history column names them (or all are asked for).
+ON_REQUEST = ("penetration_max",)
 
 
 def assemble_global(form, comm) -> float:
@@ -235,9 +240,10 @@ class Diagnostics:
     pair; the momentum and the centre of mass (:class:`MassMoments`); the contact totals of
     each contact term (:func:`~nitsche_dolfinx.history.contact_columns`).
 
-    The energies and the contact totals are computed at every call; the largest
-    penetration, the momentum, the centre of mass and the totals of each contact term
-    (:attr:`OPTIONAL`) only when asked for, by the columns of a history or by default.
+    :meth:`energies` computes the energies and the contact totals (what a step's energy
+    control needs); :meth:`complete` adds the rest, but for the largest penetration, which
+    interpolates u_n - g at the nodes of Gamma_C (the dearest of them, per step), only
+    when a history column names it (:data:`ON_REQUEST`).
 
     Args:
         model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
@@ -264,20 +270,12 @@ class Diagnostics:
             "contact_area": _total([c.area(u) for c in model.contacts], zero),
         }
         self._forms = {name: fem.form(f) for name, f in forms.items() if f is not None}
-        self._each_contact = contact_columns(len(model.contacts))
         self._each_forms = {}
         if len(model.contacts) > 1:  # one contact: its totals are the sums
             for k, contact in enumerate(model.contacts, start=1):
                 self._each_forms[f"contact_force_{k}"] = fem.form(contact.force(u))
                 self._each_forms[f"contact_area_{k}"] = fem.form(contact.area(u))
         self.penetration = Penetration(model, u)
-        #: The optional groups of columns, by name.
-        self.OPTIONAL = {
-            "penetration": ("penetration_max",),
-            "momentum": self.moments.momentum_names,
-            "centre_of_mass": self.moments.centre_names,
-            "each_contact": self._each_contact,
-        }
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""
@@ -285,51 +283,50 @@ class Diagnostics:
         matrix.mult(x, self._work)
         return 0.5 * self._work.dot(x)
 
-    def _groups(self, columns) -> set[str]:
-        """The optional groups that ``columns`` ask for (None: all)."""
-        if columns is None:
-            return {group for group, names in self.OPTIONAL.items() if names}
-        return {group for group, names in self.OPTIONAL.items() if set(names) & set(columns)}
-
     def compute(self, columns=None) -> dict[str, float]:
-        """The diagnostics at the current state, identical on every rank: the energies and
-        the contact totals, and the optional ones that ``columns`` name (None: all)."""
+        """Every diagnostic at the current state, identical on every rank (the largest
+        penetration only if ``columns`` name it; None: also)."""
+        return self.complete(self.energies(), columns)
+
+    def energies(self) -> dict[str, float]:
+        """The energies and the contact totals at the current state, identical on every
+        rank."""
         _update_partners(self.model, self.u)
         names = list(self._forms)
         local = [fem.assemble_scalar(form) for form in self._forms.values()]
         values = dict(zip(names, sum_over_ranks(self.comm, local).tolist()))
         values.setdefault("potential", 0.0)
-        values["kinetic"] = self.moments.kinetic(self.v)
-        values["elastic"] = self._quadratic(self._stiffness, self.u)
-        energy = values["kinetic"] + values["elastic"] + values["potential"]
-        result = {
+        kinetic = self.moments.kinetic(self.v)
+        elastic = self._quadratic(self._stiffness, self.u)
+        energy = kinetic + elastic + values["potential"]
+        return {
             "energy": energy,
             "energy_theta": energy + values["energy_correction"],
-            **{key: values[key] for key in ("kinetic", "elastic", "potential")},
+            "kinetic": kinetic,
+            "elastic": elastic,
+            "potential": values["potential"],
             "contact_force": values["contact_force"],
             "contact_area": values["contact_area"],
         }
-        return self.complete(result, columns)
 
     def complete(self, values: dict[str, float], columns=None) -> dict[str, float]:
-        """Add to the diagnostics ``values`` of the current state the optional ones that
-        ``columns`` name (None: all) and that they lack; returns ``values``."""
-        missing = {g for g in self._groups(columns) if self.OPTIONAL[g][0] not in values}
-        if "penetration" in missing:
+        """Add to the :meth:`energies` ``values`` of the current state the diagnostics they
+        lack: the largest penetration if ``columns`` name it (None: also), the momentum, the
+        centre of mass and the totals of each contact term; returns ``values``."""
+        wanted = columns is None or any(name in columns for name in ON_REQUEST)
+        if wanted and "penetration_max" not in values:
             values["penetration_max"] = self.penetration.max()
-        if "momentum" in missing:
-            values.update(zip(self.moments.momentum_names, self.moments.momentum(self.v).tolist()))
-        if "centre_of_mass" in missing:
-            centre = self.moments.centre_of_mass(self.u).tolist()
-            values.update(zip(self.moments.centre_names, centre))
-        if "each_contact" in missing:
-            if len(self.model.contacts) == 1:  # its totals are the sums
-                values["contact_force_1"] = values["contact_force"]
-                values["contact_area_1"] = values["contact_area"]
-            elif self._each_forms:
-                local = [fem.assemble_scalar(form) for form in self._each_forms.values()]
-                totals = sum_over_ranks(self.comm, local).tolist()
-                values.update(zip(self._each_forms, totals))
+        if self.moments.momentum_names[0] in values:
+            return values  # (completed before)
+        values.update(zip(self.moments.momentum_names, self.moments.momentum(self.v).tolist()))
+        centre = self.moments.centre_of_mass(self.u).tolist()
+        values.update(zip(self.moments.centre_names, centre))
+        if len(self.model.contacts) == 1:  # its totals are the sums
+            values["contact_force_1"] = values["contact_force"]
+            values["contact_area_1"] = values["contact_area"]
+        elif self._each_forms:
+            local = [fem.assemble_scalar(form) for form in self._each_forms.values()]
+            values.update(zip(self._each_forms, sum_over_ranks(self.comm, local).tolist()))
         return values
 
 

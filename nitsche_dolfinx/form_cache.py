@@ -21,6 +21,8 @@ import sys
 import time
 from pathlib import Path
 
+from ffcx.codegeneration import jit
+
 #: Seconds after which an unfinished claim on a form (its C file, written before the C
 #: compiler starts) is taken as left by a killed run.
 ABANDONED_AFTER = 300.0
@@ -35,8 +37,6 @@ def _claim_age(c_file: Path) -> float | None:
 
 def recover_abandoned_compilations() -> None:
     """Install the wrapper on FFCx's cache lookup (idempotent)."""
-    from ffcx.codegeneration import jit
-
     lookup = jit.get_cached_module
     if getattr(lookup, "recovers_abandoned", False):
         return

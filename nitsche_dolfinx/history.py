@@ -103,10 +103,12 @@ class History:
 
     Args:
         rows: The rows, in time order.
+        columns: The column names (default: those of the last row).
     """
 
-    def __init__(self, rows=()):
+    def __init__(self, rows=(), columns=None):
         self.rows: list[dict] = list(rows)
+        self._columns = None if columns is None else list(columns)
 
     def append(self, row: dict) -> None:
         self.rows.append(row)
@@ -116,7 +118,10 @@ class History:
 
     @property
     def columns(self) -> list[str]:
-        """The column names of the last row (a restart may continue older rows)."""
+        """The column names: those given, else those of the last row (a restart may
+        continue older rows)."""
+        if self._columns is not None:
+            return list(self._columns)
         return list(self.rows[-1]) if self.rows else []
 
     def __len__(self) -> int:
@@ -126,7 +131,7 @@ class History:
         return iter(self.rows)
 
     def __contains__(self, name: str) -> bool:
-        return bool(self.rows) and name in self.rows[-1]
+        return name in self.columns
 
     def __getitem__(self, key):
         """A column by name (an array), a row by index (a dict), rows by slice (a list)."""

@@ -21,13 +21,12 @@ from dolfinx.io import XDMFFile
 
 from . import compat
 from .fields import NodalMean, OutputMesh
-from .history import added_columns
-from .series import PART_SUFFIX, SeriesXML, _continuation, _remove_segments, continue_solution
+from .history import History, added_columns
+from .series import PART_SUFFIX, SeriesXML, continuation, remove_segments
 
 __all__ = [
     "HistoryWriter",
     "SolutionWriter",
-    "continue_solution",
     "ensure_directory",
     "read_history",
 ]
@@ -44,13 +43,20 @@ class HistoryWriter:
             (which must be its last row but for rows after it, dropped) and append.
             The kept rows are in :attr:`previous_rows` on every rank. ``columns`` may
             add columns to the file's, which then hold ``nan`` in the kept rows.
+        beside: With ``resume_at``, when ``path`` does not exist (a run restarted into
+            another folder): the history to take the rows up to ``resume_at`` from (the
+            one beside the checkpoint); if it does not exist either, the new history
+            starts at ``resume_at`` (no previous rows).
 
     Raises:
         ValueError: On every rank, if the file cannot be written, or cannot be continued
             (missing, a column of the file left out, or no row at ``resume_at``).
     """
 
-    def __init__(self, path: str, columns: Sequence[str], comm, resume_at: float | None = None):
+    def __init__(
+        self, path: str, columns: Sequence[str], comm, resume_at: float | None = None,
+        beside: str | None = None,
+    ):  # fmt: skip
         self.path = str(path)
         self.columns = list(columns)
         self.rank = comm.rank
@@ -60,12 +66,15 @@ class HistoryWriter:
         error, rows = None, []
         if self.rank == 0:
             try:
-                if resume_at is None:
+                source = self.path
+                if resume_at is not None and beside and not os.path.isfile(self.path):
+                    source = beside if os.path.isfile(beside) else None
+                if resume_at is None or source is None:
                     self._file = open(self.path, "w", newline="")
                     self._file.write(",".join(self.columns) + "\n")
                     self._file.flush()
                 else:
-                    rows = _rows_up_to(self.path, self.columns, resume_at)
+                    rows = _rows_up_to(source, self.columns, resume_at, self.path)
                     self._file = open(self.path, "a", newline="")
             except (OSError, ValueError) as exc:
                 error = str(exc) if isinstance(exc, ValueError) else _os_error(self.path, exc)
@@ -99,8 +108,9 @@ def _parse_number(text: str):
         return float(text)
 
 
-def _rows_up_to(path: str, columns: list[str], t: float) -> list[dict]:
-    """Cut the history ``path`` after its row at time ``t`` (atomically); return the rows kept.
+def _rows_up_to(path: str, columns: list[str], t: float, target: str | None = None) -> list[dict]:
+    """Cut the history ``path`` after its row at time ``t`` (atomically; into ``target``
+    instead when given); return the rows kept.
 
     The run may write more columns than the file has
     (:func:`~nitsche_dolfinx.history.added_columns`): the file is rewritten with the run's
@@ -134,12 +144,13 @@ def _rows_up_to(path: str, columns: list[str], t: float) -> list[dict]:
         raise ValueError(
             f"cannot continue the history {path!r}: it {last}, before the restart time t = {t:.6g}"
         )
-    temporary = f"{path}.tmp"
+    target = path if target is None else target
+    temporary = f"{target}.tmp"
     with open(temporary, "w", newline="") as f:
         f.write("\n".join(kept) + "\n")
         f.flush()
         os.fsync(f.fileno())
-    os.replace(temporary, path)
+    os.replace(temporary, target)
     return rows
 
 
@@ -149,14 +160,15 @@ def _format(value) -> str:
     return repr(float(value))
 
 
-def read_history(path: str) -> dict[str, np.ndarray]:
-    """Read a ``history.csv`` into a dict of column name to float array."""
+def read_history(path: str) -> History:
+    """Read a ``history.csv`` into the :class:`~nitsche_dolfinx.history.History` that
+    :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>` returns: its rows
+    (integers where the file has them), column by column as arrays (``history["energy"]``)."""
     with open(path, newline="") as f:
         reader = csv.reader(f)
         header = next(reader)
-        rows = [[float(x) for x in row] for row in reader if row]
-    data = np.array(rows, dtype=float).reshape(-1, len(header))
-    return {name: data[:, i] for i, name in enumerate(header)}
+        rows = [dict(zip(header, (_parse_number(x) for x in row))) for row in reader if row]
+    return History(rows, columns=header)
 
 
 class SolutionWriter:
@@ -199,7 +211,8 @@ class SolutionWriter:
         fields: ``{name: (source, shape)}`` with shape ``()`` or ``(gdim,)``; a source is
             a Function, a UFL expression or an object with ``evaluate(target)``.
         append: Continue the series of an existing file written for the same mesh
-            (see :func:`continue_solution`) instead of starting a new file.
+            (see :func:`~nitsche_dolfinx.series.continue_solution`) instead of starting a
+            new file.
     """
 
     def __init__(self, path: str, mesh, fields: dict, append: bool = False):
@@ -223,7 +236,7 @@ class SolutionWriter:
         self.append = bool(append)
         stem, k = os.path.splitext(self.path)[0], 0
         if self.append:
-            decision = _continuation(self.path) if self.comm.rank == 0 else None
+            decision = continuation(self.path) if self.comm.rank == 0 else None
             stem, k = self.comm.bcast(decision, root=0)
         #: The name of the mesh grid the levels of this writer refer to.
         self.mesh_name = f"mesh-restart{k}" if self.append else "mesh"
@@ -255,7 +268,7 @@ class SolutionWriter:
 
         def prepare():
             if new_file:
-                _remove_segments(os.path.splitext(self.path)[0])
+                remove_segments(os.path.splitext(self.path)[0])
             else:  # dolfinx appends to a copy holding the meshes, not the levels
                 with open(self._part, "w") as f:
                     f.write(self._xml.working_copy())

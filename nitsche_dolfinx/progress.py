@@ -27,6 +27,7 @@ BAR_FORMAT = "{percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g} [{elapsed}<{rema
 
 
 def _tqdm():
+    """tqdm if installed (an optional dependency: without it, a line per step)."""
     try:
         from tqdm import tqdm
     except ImportError:

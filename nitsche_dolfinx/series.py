@@ -140,7 +140,7 @@ def read_solution(path: str, t: float | None = None) -> list[Level]:
     numbered anew (see :class:`~nitsche_dolfinx.output.SolutionWriter`), so that the
     levels before and after it have meshes of their own.
     """
-    import h5py
+    import h5py  # optional: only reading a series back needs it (the fields are written by dolfinx)
 
     folder = os.path.dirname(path)
     domain = ElementTree.parse(path).getroot().find("Domain")
@@ -188,7 +188,7 @@ def _series_files(path: str) -> tuple[set[int], bool]:
     return numbers, interrupted
 
 
-def _continuation(path: str) -> tuple[str, int]:
+def continuation(path: str) -> tuple[str, int]:
     """Where a restart continues the series ``path``: ``(stem of its data file, k)``.
 
     The mesh goes again into the grid ``mesh-restart<k>``, k the least number that no grid
@@ -213,7 +213,7 @@ def _continuation(path: str) -> tuple[str, int]:
     return os.path.join(os.path.dirname(path), os.path.splitext(data[-1])[0]), k
 
 
-def _remove_segments(stem: str) -> None:
+def remove_segments(stem: str) -> None:
     """Remove the data of the restarts of an earlier series ``<stem>.xdmf`` and the working
     copies of its XML, before a new series of that name starts."""
     folder = os.path.dirname(stem) or "."

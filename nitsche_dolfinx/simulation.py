@@ -25,10 +25,11 @@ from .linear_solvers import LinearSolver
 from .linear_solvers import linear_solver as linear_solver_preset
 from .mixed import MixedStepper
 from .model import ContactProblem
-from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
-from .parameters import OutputParameters, TimeStepping
+from .output import HistoryWriter, SolutionWriter, ensure_directory
+from .parameters import OutputParameters, TimeStepping, require
 from .progress import Progress
 from .schemes import TimeScheme
+from .series import continue_solution
 from .signals import RunInterrupted, StopSignals
 from .solver import SolverError
 from .stepper import NitscheStepper
@@ -199,7 +200,7 @@ class Simulation:
             restart: Continue from a checkpoint: its folder, or True for
                 ``out/checkpoint``. The history keeps its rows up to the checkpoint
                 and continues; the XDMF series is appended to (see
-                :func:`~nitsche_dolfinx.output.continue_solution`).
+                :func:`~nitsche_dolfinx.series.continue_solution`).
 
         Returns:
             The :class:`~nitsche_dolfinx.history.History`, one row of :meth:`state`
@@ -217,6 +218,7 @@ class Simulation:
             CheckpointError: The checkpoint to restart from is missing or does not fit.
         """
         output = OutputParameters(output_every, checkpoint_every)
+        self._check_columns(columns)
         run = _Run(self, out, list(columns), output)
         run.open(restart)
         failures = FailureChannel(self.comm)
@@ -238,6 +240,21 @@ class Simulation:
             if collective_exit:
                 failures.free()
         return run.history
+
+    def _check_columns(self, columns) -> None:
+        """Refuse history columns that are not names of :meth:`state` (before the run)."""
+        require(
+            not isinstance(columns, str) and len(columns) > 0,
+            "columns",
+            columns,
+            "must be a list of column names, at least one",
+        )
+        known = list(self.state())
+        for name in columns:
+            require(
+                name in known, "columns", name,
+                f"not a column of this run (it has {', '.join(known)})",
+            )  # fmt: skip
 
     # -- checkpoints ---------------------------------------------------------------------
 
@@ -276,6 +293,7 @@ class _Run:
             raise ValueError("restart=True needs an output folder (out), or give the folder")
         if self.out is not None:
             ensure_directory(self.out, self.comm)
+        source = None
         if restart not in (None, False):
             source = self.checkpoints if restart is True else str(restart)
             saved = sim.load_checkpoint(source, self.columns)
@@ -291,7 +309,11 @@ class _Run:
             return
         path = os.path.join(self.out, "history.csv")
         resume_at = sim.t if self.restarted else None
-        self.writer = HistoryWriter(path, self.columns, self.comm, resume_at=resume_at)
+        # a restart into another folder continues the history beside the checkpoint
+        beside = None
+        if self.restarted and source != self.checkpoints:
+            beside = os.path.join(os.path.dirname(os.path.abspath(source)), "history.csv")
+        self.writer = HistoryWriter(path, self.columns, self.comm, resume_at, beside)
         self.history.extend(self.writer.previous_rows)
         if self.output.output_every > 0:
             self.fields = self._solution_writer()
@@ -327,8 +349,9 @@ class _Run:
     def march(self, signals: StopSignals, callback) -> None:
         """Record the first level, then step to t_end; checkpoint as asked, and on a stop."""
         sim, every = self.simulation, self.output.checkpoint_every
-        if not self.restarted or self.writer is None:
-            self.record(write=not self.restarted)  # a restarted level is already written
+        if not self.restarted or self.writer is None or not self.writer.previous_rows:
+            # a restarted level is already written, unless the history starts there
+            self.record(write=not self.restarted or self.writer is not None)
         while not sim.finished:
             try:
                 self.advance(sim.stepper.next_time(), 0, signals, callback)

@@ -289,7 +289,7 @@ class NitscheStepper(TimeLevels):
         """Refuse the new state just written to u, v, a if E_Theta does not control it
         (:func:`energy_controlled`): u^n, v^n, a^n are put back and
         :class:`UncontrolledStep` raised."""
-        values = self.diagnostics.compute(columns=())
+        values = self.diagnostics.energies()
         if energy_controlled(values):
             self._diagnostics_cache = (self.step_index + 1, values)
             return

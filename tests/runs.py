@@ -49,12 +49,17 @@ def assert_one_line_error(result, named: str, status: int = 2) -> None:
     assert "Traceback" not in result.stderr + result.stdout
 
 
-def assert_same_history(a: dict, b: dict, tolerance: float = 1e-12) -> float:
+def column_names(history) -> list:
+    """The columns of a History (``read_history``, ``run``) or of a dict of columns."""
+    return history.columns if hasattr(history, "columns") else list(history)
+
+
+def assert_same_history(a, b, tolerance: float = 1e-12) -> float:
     """The largest difference of two histories, relative to each column's largest value."""
-    assert list(a) == list(b)
+    assert column_names(a) == column_names(b)
     assert len(a["t"]) == len(b["t"])
     worst = 0.0
-    for name in a:
+    for name in column_names(a):
         if name == "step_seconds":
             continue
         scale = max(np.abs(a[name]).max(), 1e-300)

@@ -121,12 +121,12 @@ def shortened(name: str, replace: dict, folder: str) -> str:
     return path
 
 
-def assert_same_columns(a: dict, b: dict) -> float:
+def assert_same_columns(a, b) -> float:
     """The same columns in the same order and the same values (but the wall time): the
     largest difference relative to each column's largest value, at most 1e-13."""
-    assert list(a) == list(b)
+    assert a.columns == b.columns
     worst = 0.0
-    for column in a:
+    for column in a.columns:
         if column == "step_seconds":
             continue
         scale = max(np.abs(b[column]).max(), 1e-300)

@@ -16,7 +16,7 @@ from nitsche_dolfinx import (
     ThetaScheme,
     load_mesh,
 )
-from nitsche_dolfinx import stepper as stepper_module
+from nitsche_dolfinx import stepping as stepping_module
 from nitsche_dolfinx.cases import bar_simulation, block_problem, impact_problem
 from nitsche_dolfinx.stepping import UncontrolledStep
 
@@ -103,7 +103,7 @@ def test_gamma0_beyond_the_stability_limit_stops_the_run(tmp_path, monkeypatch):
     assert simulation.state()["energy"] < 2.0  # u, v, a are those of t = 0.01 again
 
     # without the check, the same run goes on to an energy of 1e14
-    monkeypatch.setattr(stepper_module, "ENERGY_CONTROL", -np.inf)
+    monkeypatch.setattr(stepping_module, "ENERGY_CONTROL", -np.inf)
     history = _falling_block(1.0).run()
     assert history["energy"][-1] > 1e12 * history["energy"][0]
     assert history.cut_steps() == 0

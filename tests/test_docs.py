@@ -1,0 +1,44 @@
+"""docs/method.md names where each formula lives, after **Code:**, as `module.name`: every
+such name is one of the package (a moved or renamed class leaves no stale reference)."""
+
+import importlib
+import os
+import pkgutil
+import re
+
+import pytest
+
+import nitsche_dolfinx
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MODULES = {module.name for module in pkgutil.iter_modules(nitsche_dolfinx.__path__)}
+
+
+def code_names(path: str) -> list[str]:
+    """The `module.name...` references of the **Code:** paragraphs of ``path``."""
+    with open(path) as f:
+        text = f.read()
+    names = []
+    for paragraph in re.findall(r"\*\*Code:\*\*(.*?)(?:\n\n|\Z)", text, re.S):
+        for token in re.findall(r"`([^`\n]+)`", paragraph):
+            parts = token.split("(")[0].strip().split(".")
+            if len(parts) > 1 and parts[0] in MODULES and all(p.isidentifier() for p in parts):
+                names.append(".".join(parts))
+    return names
+
+
+@pytest.mark.parametrize("document", ["method.md", "results.md"])
+def test_code_references_name_the_package(document):
+    names = code_names(os.path.join(REPO, "docs", document))
+    if document == "method.md":
+        assert len(names) > 100  # the references were found at all
+    missing = []
+    for name in names:
+        module, *attributes = name.split(".")
+        target = importlib.import_module(f"nitsche_dolfinx.{module}")
+        for attribute in attributes:
+            target = getattr(target, attribute, None)
+            if target is None:
+                missing.append(name)
+                break
+    assert not missing, f"docs/{document} names what the package lacks: {missing}"
