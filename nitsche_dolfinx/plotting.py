@@ -16,6 +16,7 @@ import numpy as np
 __all__ = [
     "BAR_METHOD_STYLES",
     "BAR_PANELS",
+    "SCHEME_COLOURS",
     "bar_figure",
     "bar_panels",
     "comparison_figure",
@@ -60,6 +61,15 @@ def latex_number(x: float) -> str:
     power = f"10^{{{int(exponent)}}}"
     return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
+
+#: A colour per time scheme (:data:`~nitsche_dolfinx.schemes.SCHEMES`), the same in every
+#: figure that compares schemes.
+SCHEME_COLOURS = {
+    "hybrid": "tab:blue",
+    "cn": "tab:red",
+    "theta": "tab:green",
+    "newmark": "tab:orange",
+}
 
 #: The parts of E^h drawn with a single run's energy.
 _PARTS = (

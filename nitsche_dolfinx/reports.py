@@ -29,6 +29,7 @@ __all__ = [
     "refinement_table",
     "run_summary",
     "runs_table",
+    "steps_text",
     "two_bars_summary",
     "write_csv",
 ]
@@ -78,6 +79,12 @@ def run_summary(history, seconds: float) -> None:
     ]
     for label, value in lines:
         print(f"{label:34s} {value}")
+
+
+def steps_text(history) -> str:
+    """``400 steps``, or ``400 steps (3 of them cut)`` when Newton needed cut steps."""
+    cut = history.cut_steps()
+    return f"{len(history) - 1} steps" + (f" ({cut} of them cut)" if cut else "")
 
 
 def runs_table(runs: Sequence[tuple]) -> None:
