@@ -100,11 +100,12 @@ with one_line_errors(parser):
 # ## The time loop
 #
 # The initial time level is the first row. Each `step()` solves one nonlinear
-# problem (a semismooth Newton method) and moves `u`, `v` and `t` to the new
-# level. `state()` is collective: every rank calls it, and gets the same numbers;
-# the writers write on rank 0 (the history) or together (the fields). Before the
-# fields are written, `stepper.before_output()` projects the contact fields
-# (pressure, gap, status) onto $\Gamma_C$.
+# problem (a semismooth Newton method) and moves `u`, `v`, `a` and `t` to the new
+# level. `state()` is collective: every rank calls it, and gets the same numbers
+# (energies, contact force, the probes; `simulation.u` and `simulation.v` are the
+# Functions themselves). The history is written by rank 0, the fields by every
+# rank together; before they are written, `stepper.before_output()` projects the
+# contact fields (pressure, gap, status) onto $\Gamma_C$.
 
 columns = cases.BAR_COLUMNS  # t, u_contact, v_contact, sigma_contact, energy, ...
 with one_line_errors(parser):
@@ -118,24 +119,25 @@ with one_line_errors(parser):
             path = os.path.join(args.out, "solution.xdmf")
             fields = SolutionWriter(path, problem.mesh, simulation.output_fields())
 
-        def record():
-            """Add the current time level to the history, and write it."""
+        history.append(simulation.state())  # the level t = 0
+        writer.write(history[-1])
+        if fields is not None:
+            simulation.stepper.before_output()
+            fields.write(simulation.t)
+        while not simulation.finished:
+            simulation.step()
             row = simulation.state()
             history.append(row)
             writer.write(row)
             if fields is not None and simulation.step_index % args.output_every == 0:
                 simulation.stepper.before_output()
                 fields.write(simulation.t)
-
-        record()
-        while not simulation.finished:
-            simulation.step()
-            record()
             if not args.quiet and comm.rank == 0 and simulation.step_index % 50 == 0:
-                row = history[-1]
                 print(f"t = {simulation.t:7.3f}  u(t, 0) = {row['u_contact']:+.4f}  "
                       f"E = {row['energy']:.6f}  Newton {row['newton_iterations']}")  # fmt: skip
         writer.close()
+        if fields is not None:
+            fields.close()
 
 # ## The result
 #
