@@ -16,9 +16,10 @@ PY = $(shell cat .python-path)
 setup:
 	@scripts/setup.sh > .python-path.tmp && tail -n 1 .python-path.tmp > .python-path && rm -f .python-path.tmp
 
-# The main job: the paper's experiments that exist so far.
+# The main job: the paper's experiments (the bar also with its time loop written out).
 demo: setup
 	$(PY) demos/bar_1d.py --out out/bar_1d
+	$(PY) demos/bar_loop_1d.py --out out/bar_loop_1d
 	$(PY) demos/compare_methods_1d.py --out out/compare_methods_1d
 	$(PY) demos/convergence_1d.py --out out/convergence_1d
 	mpirun -n $(NP) $(PY) demos/ring_2d.py --quiet --out out/ring_2d

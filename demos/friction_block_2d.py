@@ -54,7 +54,6 @@ import argparse
 import os
 import sys
 
-import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
@@ -69,6 +68,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.cases import add_block_probes, block_problem
 from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS
+from nitsche_dolfinx.reports import friction_summary
 
 #: ``history.csv`` columns: those of the 2D/3D demos, the energy balance, and the
 #: block's mean velocity along the plane.
@@ -90,6 +90,7 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
     parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
     add_terminal_arguments(parser)
+    parser.add_argument("--no-plot", action="store_true", help="accepted; this demo draws nothing")
     return parser, parser.parse_args(argv)
 
 
@@ -151,15 +152,10 @@ def main(argv=None) -> None:
         history = run(args)
     if MPI.COMM_WORLD.rank == 0:
         velocity, t = history["mean_velocity"], history["t"]
-        dissipation = history["friction_dissipation"]
-        balance = history["energy_balance_residual"]
         print(
             f"{rigid_prediction(args)}; computed mean velocity at t = {t[-1]:g}: {velocity[-1]:.6g}"
         )
-        print(
-            f"frictional work: {dissipation.sum():.6g} (smallest step: {dissipation.min():.3g}); "
-            f"largest |energy balance residual|: {np.abs(balance).max():.3g}"
-        )
+        friction_summary(history, args.mu)
         print(
             f"history: {os.path.join(args.out, 'history.csv')}; "
             f"fields: {os.path.join(args.out, 'solution.xdmf')}"

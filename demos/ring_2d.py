@@ -68,7 +68,6 @@ import argparse
 import os
 import time
 
-import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
@@ -81,6 +80,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.reports import run_summary
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")
@@ -157,58 +157,16 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
     )
 
 
-# ### Measuring
-#
-# `Simulation.run` writes one row of `history.csv` per time level, $t = 0$
-# included, with the columns `HISTORY_COLUMNS`, and returns them as a `History`.
-# From them: the relative energy change at $T$, the largest increase of
-# $E_\Theta^h$ over one step (at most round-off for the hybrid scheme with
-# $\Theta = 1$), the largest contact force and penetration, the contact
-# interval and the Newton iterations.
-
-
-def summarize(history, seconds: float) -> None:
-    """Print the numbers of one run (rank 0)."""
-    t, energy, force = history["t"], history["energy"], history["contact_force"]
-    interval = history.contact_interval()
-    i = int(np.argmax(force))
-    lines = [
-        ("E(0), E(T)", f"{energy[0]:.10f}, {energy[-1]:.10f}"),
-        ("E(T)/E(0) - 1", f"{history.energy_drift():+.3e}"),
-        ("largest one-step rise of E_Theta", f"{np.max(np.diff(history['energy_theta'])):.2e}"),
-        ("largest contact force", f"{force[i]:.4g} at t = {t[i]:.4g}"),
-        ("largest penetration u_n - g", f"{np.max(history['penetration_max']):.3e}"),
-        ("in contact", "never" if interval is None else "{:.4g} <= t <= {:.4g}".format(*interval)),
-        ("Newton iterations per step", f"{history.mean_newton_iterations():.2f}"),
-        ("wall time", f"{seconds:.2f} s"),
-    ]
-    for label, value in lines:
-        print(f"{label:34s} {value}")
-
-
-# ### The figure
-#
-# `nitsche_dolfinx.plotting.energy_figure`: the energy $E^h$, its parts
-# (kinetic, elastic, potential of gravity) and $E_\Theta^h$; their relative
-# changes, where the losses at the impact show; the contact force
-# $\int_{\Gamma_C} \frac{1}{\gamma_h}[P_\gamma(u_h)]_+$. matplotlib is optional:
-# without it the demo only skips the figure.
-
-
-def plot(history, args: argparse.Namespace, scheme: str, path: str) -> None:
-    """Draw the energies and the contact force against time into ``path``."""
-    title = (
-        rf"2D bouncing ring, {scheme}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
-        rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, "
-        rf"$\tau = {latex_number(args.dt)}$"
-    )
-    energy_figure([history], ["$E^h$"], ["black"], title, path)
-
-
 # ### Main
 #
 # A bad parameter stops the demo with a one-line message naming it, as does a
-# Newton failure (the message names the step and the time).
+# Newton failure (the message names the step and the time). Then the numbers of
+# the run (`reports.run_summary`: the energy change, the largest one-step rise of
+# $E_\Theta^h$, at most round-off for the hybrid scheme with $\Theta = 1$, the
+# contact force, penetration and interval, the Newton iterations) and the energy
+# figure (`plotting.energy_figure`: $E^h$, its kinetic, elastic and gravity parts
+# and $E_\Theta^h$; their relative changes; the contact force). matplotlib is
+# optional.
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -222,12 +180,18 @@ def main(argv: list[str] | None = None) -> None:
     seconds = time.perf_counter() - start
 
     if MPI.COMM_WORLD.rank == 0:
-        summarize(history, seconds)
+        run_summary(history, seconds)
         print(f"history: {os.path.join(args.out, 'history.csv')}")
         if args.output_every > 0:
             print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
         if not args.no_plot:
-            plot(history, args, simulation.scheme.describe(), os.path.join(args.out, "ring_2d.png"))
+            title = (
+                rf"2D bouncing ring, {simulation.scheme.describe()}, Nitsche "
+                rf"$\Theta = {args.nitsche_theta:g}$, $\gamma_0 = {latex_number(args.gamma0)}$, "
+                rf"P{args.degree}, $\tau = {latex_number(args.dt)}$"
+            )
+            path = os.path.join(args.out, "ring_2d.png")
+            energy_figure([history], ["$E^h$"], ["black"], title, path)
 
 
 if __name__ == "__main__":

@@ -33,10 +33,8 @@
 
 # +
 import argparse
-import csv
 import os
 
-import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
@@ -49,10 +47,12 @@ from nitsche_dolfinx.arguments import (
     one_line_errors,
     scheme_from_arguments,
 )
+from nitsche_dolfinx.exact import two_bars_errors
 from nitsche_dolfinx.history import History
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Worldlines, render_worldlines
-from nitsche_dolfinx.plotting import energy_figure, latex_number, pyplot
+from nitsche_dolfinx.plotting import energy_figure, latex_number, two_bars_figure
+from nitsche_dolfinx.reports import refinement_table, two_bars_summary, write_csv
 from nitsche_dolfinx.twobody import (
     LOWER_BODY,
     UPPER_BODY,
@@ -123,43 +123,11 @@ def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -
 
 # ## Against the exact solution
 #
-# The exact pair touches at $t_0 = g / (2 v_0)$ and separates at $t_0 + 2$;
-# after it the left bar moves at $-v_0$ and the right one at $+v_0$.
-
-
-def errors(history: History, args) -> dict:
-    touching = history["t"][history["contact_force"] > 0]
-    start = args.gap / (2 * args.v0)
-    duration = (touching.max() - touching.min()) if len(touching) else 0.0
-    after = history["t"] > start + 2.0 + 0.2
-    exit_error = np.nan
-    if after.any():
-        exit_error = (
-            max(
-                np.abs(history["v_right"][after] - args.v0).max(),
-                np.abs(history["v_left"][after] + args.v0).max(),
-            )
-            / args.v0
-        )
-    energy = history["energy"]
-    return {
-        "contact_start": touching.min() if len(touching) else np.nan,
-        "duration_error": abs(duration - 2.0) / 2.0,
-        "exit_velocity_error": exit_error,
-        "energy_error": abs(energy[-1] - energy[0]) / energy[0],
-        "momentum_max": np.abs(history["momentum"]).max() / args.v0,
-        "newton": history.mean_newton_iterations(),
-    }
-
-
-def print_summary(history: History, args) -> None:
-    e = errors(history, args)
-    print(f"{2 * (args.nx + 1)} DOFs, {len(history) - 1} steps of tau = {args.dt:g}")
-    print(f"contact from t = {e['contact_start']:.4f}, duration error {e['duration_error']:.3e}")
-    print(f"exit velocities, largest relative error {e['exit_velocity_error']:.3e}")
-    print(f"energy change {e['energy_error']:.3e}, largest |momentum| / v0 {e['momentum_max']:.1e}")
-    print(f"largest one-step rise of E_Theta {history.largest_rise():.2e}")
-    print(f"Newton iterations per step {e['newton']:.2f}")
+# The exact pair touches at $t_0 = g / (2 v_0)$ and separates at $t_0 + 2$; then
+# the left bar moves at $-v_0$ and the right one at $+v_0$
+# (`exact.two_bars_errors`: the relative errors of the contact duration, the exit
+# velocities and the energy). `--refine N` runs $N$ refinements, $n_x$ doubled
+# and $\tau$ halved each time, into `OUT/refinement.csv`.
 
 
 def refinement(args) -> list[dict]:
@@ -167,29 +135,16 @@ def refinement(args) -> list[dict]:
     rows = []
     for level in range(args.refine + 1):
         nx, dt = args.nx * 2**level, args.dt / 2**level
-        rows.append({"nx": nx, "dt": dt, **errors(run(args, nx, dt, None, True), args)})
+        history = run(args, nx, dt, None, True)
+        rows.append({"nx": nx, "dt": dt, **two_bars_errors(history, args.v0, args.gap)})
     return rows
 
 
-def plot(history: History, args, path: str) -> None:
-    plt = pyplot()
-    if plt is None:
-        return
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    t = history["t"]
-    start = args.gap / (2 * args.v0)
-    exact = np.where((t > start) & (t < start + 2), 0.0, np.where(t < start, 1.0, -1.0))
-    top.plot(t, history["v_right"], label="right bar")
-    top.plot(t, history["v_left"], label="left bar")
-    top.plot(t, -args.v0 * exact, "k:", lw=0.8, label="exact (end states)")
-    top.set_ylabel("mean velocity")
-    top.legend()
-    bottom.plot(t, history["contact_force"], label="contact force")
-    bottom.axhline(args.v0, color="k", ls=":", lw=0.8, label=r"$\rho c v_0$")
-    bottom.set_xlabel("t")
-    bottom.legend()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+# ## Main
+#
+# The run keeps every node at every time level (`pictures.Worldlines`) for the
+# picture of the bars in space and time; then the errors, the velocities and the
+# contact force against the exact ones, and the energy figure.
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -202,23 +157,16 @@ def main(argv: list[str] | None = None) -> None:
         rows = refinement(args) if args.refine else []
     if MPI.COMM_WORLD.rank != 0:
         return
-    print_summary(history, args)
+    errors = two_bars_errors(history, args.v0, args.gap)
+    two_bars_summary(history, errors, 2 * (args.nx + 1), args.dt)
     print(f"history: {os.path.join(args.out, 'history.csv')}")
     if rows:
         path = os.path.join(args.out, "refinement.csv")
-        with open(path, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-        print(f"{'nx':>6} {'dt':>9} {'duration':>10} {'exit v':>10} {'energy':>10}")
-        for row in rows:
-            print(
-                f"{row['nx']:6d} {row['dt']:9.3g} {row['duration_error']:10.3e} "
-                f"{row['exit_velocity_error']:10.3e} {row['energy_error']:10.3e}"
-            )
+        write_csv(path, list(rows[0]), rows)
+        refinement_table(rows)
         print(f"refinement: {path}")
     if not args.no_plot:
-        plot(history, args, os.path.join(args.out, "two_bars_1d.png"))
+        two_bars_figure(history, args.v0, args.gap, os.path.join(args.out, "two_bars_1d.png"))
         title = (
             rf"two bars, {args.variant}, $\gamma_0 = {latex_number(args.gamma0)}$, "
             rf"{args.nx} cells each, $\tau = {latex_number(args.dt)}$"

@@ -1,21 +1,36 @@
-"""The test cases of docs/method.md section 5, ready to run: for the demos, tests and benchmarks."""
+"""The test cases of docs/method.md section 5, ready to run: for the demos, tests and benchmarks.
+
+The bar (:func:`bar_problem`, :func:`bar_simulation`) with the methods the talk compares
+on it (:data:`BAR_METHODS`) and one level of its convergence study
+(:func:`bar_convergence_level`); the impact of a ball or a disk (:func:`impact_problem`);
+a block sliding with Coulomb friction (:func:`block_problem`).
+"""
 
 from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
 
 import numpy as np
 from mpi4py import MPI
 
 from .diagnostics import BoundaryAverage
+from .exact import BAR_ENERGY, BarSpaceTimeErrors, bar_contact_values
 from .material import Material
 from .meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
 from .model import ContactProblem
 from .obstacles import PlaneObstacle
+from .schemes import TimeScheme, make_scheme
 from .simulation import Simulation
 from .valueforms import PolynomialField
 
 __all__ = [
     "BAR_COLUMNS",
+    "BAR_METHODS",
+    "BarMethod",
+    "IMPACT_SCHEMES",
     "add_bar_probes",
+    "bar_convergence_level",
     "bar_problem",
     "bar_simulation",
     "add_block_probes",
@@ -93,6 +108,111 @@ def add_bar_probes(simulation) -> None:
     simulation.add_probe("v_contact", BoundaryAverage(mesh, simulation.v[0], ds))
     pressure = simulation.contact_pressure()  # lambda_h, or the mixed method's multiplier
     simulation.add_probe("sigma_contact", BoundaryAverage(mesh, pressure, ds))
+
+
+@dataclass(frozen=True)
+class BarMethod:
+    """A contact method of the talk's comparisons on the bar: the method of
+    :class:`ContactProblem` (nitsche, penalty, mixed), the time scheme and the mass."""
+
+    label: str  # in legends and tables
+    method: str
+    scheme: str
+    mass: str = "consistent"
+
+    @property
+    def name(self) -> str:
+        """A name for folders and tables: ``<method>_<scheme>``, or ``modified_mass``."""
+        return "modified_mass" if self.mass == "redistributed" else f"{self.method}_{self.scheme}"
+
+    def with_scheme(self, scheme: TimeScheme) -> BarMethod:
+        """This method with another scheme (its label says which)."""
+        if scheme.name == self.scheme:
+            return self
+        label = f"{self.method.capitalize()} + {scheme.describe()}"
+        return replace(self, label=label, scheme=scheme.name)
+
+
+#: The methods the talk compares on the bar (``demos/compare_methods_1d.py``,
+#: ``demos/convergence_1d.py``); the mixed ones are Alart-Curnier Lagrange multipliers, the
+#: modified mass is the redistributed mass of Khenous, Laborde & Renard.
+BAR_METHODS = {
+    "hybrid": BarMethod("Nitsche hybrid", "nitsche", "hybrid"),
+    "cn": BarMethod("Nitsche + CN", "nitsche", "cn"),
+    "mixed": BarMethod("Mixed + CN", "mixed", "cn"),
+    "modified_mass": BarMethod("Modified mass + CN", "mixed", "cn", "redistributed"),
+    "penalty": BarMethod("Penalty + hybrid", "penalty", "hybrid"),
+}
+
+
+def bar_convergence_level(
+    method: BarMethod,
+    nx: int,
+    dt: float,
+    t_end: float,
+    gamma0: float,
+    degree: int = 1,
+    out: str | None = None,
+    output_every: int = 0,
+    scheme: TimeScheme | None = None,
+    **parameters,
+) -> dict:
+    """One level of the bar's convergence study: ``method`` with ``nx`` cells (h = 1/nx),
+    the step ``dt`` and T = ``t_end``, and its errors against the exact solution.
+
+    Besides the history's probes, the normal stress of the discrete displacement at the
+    wall, sigma_n(u_h)(t, 0), is recorded as ``stress_contact``. With ``out``, the
+    history (and every ``output_every`` steps the fields) are written there.
+
+    Args:
+        scheme: The scheme (default: that of ``method``).
+        parameters: More of :func:`bar_problem`'s (``nitsche_theta``, ...) and
+            ``max_step_cuts``.
+
+    Returns:
+        ``N``, ``h``, ``tau``, ``error_l2_l2`` and ``error_l2_h1``
+        ((sum_n tau ||e^n||^2)^(1/2) in L2 and the H1 seminorm,
+        :class:`~nitsche_dolfinx.exact.BarSpaceTimeErrors`), ``error_pressure`` and
+        ``error_stress`` (lambda_h and sigma_n(u_h) at x = 0 in l2(tau)),
+        ``error_energy`` (max_n |E^n - 1/8|), ``newton_iterations`` (per step) and
+        ``wall_seconds``.
+    """
+    start = time.perf_counter()
+    simulation = bar_simulation(
+        scheme or make_scheme(method.scheme), method=method.method, mass=method.mass,
+        dt=dt, t_end=t_end, nx=nx, degree=degree, gamma0=gamma0, **parameters,
+    )  # fmt: skip
+    problem = simulation.problem
+    stress = problem.contacts[0].sigma_n(simulation.u)
+    ds = problem.ds(BAR_CONTACT)
+    simulation.add_probe("stress_contact", BoundaryAverage(problem.mesh, stress, ds))
+    errors = BarSpaceTimeErrors(simulation)
+    errors(simulation)  # t = 0
+    history = simulation.run(out=out, callback=errors, output_every=output_every)
+    _, _, sigma = bar_contact_values(history["t"])
+    return {
+        "N": nx,
+        "h": 1.0 / nx,
+        "tau": dt,
+        "error_l2_l2": np.sqrt(errors.l2_squared),
+        "error_l2_h1": np.sqrt(errors.h1_squared),
+        "error_pressure": np.sqrt(dt * np.sum((history["sigma_contact"] - sigma) ** 2)),
+        "error_stress": np.sqrt(dt * np.sum((history["stress_contact"] - sigma) ** 2)),
+        "error_energy": np.max(np.abs(history["energy"] - BAR_ENERGY)),
+        "newton_iterations": history.mean_newton_iterations(),
+        "wall_seconds": time.perf_counter() - start,
+    }
+
+
+#: The schemes of the talk's energy figure of the impact, with its parameters (keywords of
+#: :func:`~nitsche_dolfinx.schemes.make_scheme`): backward Euler, and the Newmark scheme the
+#: talk proves stable (beta = 1/2, gamma = 1; 1/4, 1/2 would be Crank-Nicolson again).
+IMPACT_SCHEMES = {
+    "hybrid": {},
+    "cn": {},
+    "theta": {"theta": 1.0},
+    "newmark": {"beta": 0.5, "gamma": 1.0},
+}
 
 
 def impact_problem(

@@ -1,8 +1,10 @@
-"""The exact solution of the 1D bar with multiple impacts (docs/method.md section 5).
+"""Exact solutions and the errors of runs against them.
 
-Omega = (0, 1), E = rho = 1, clamped at x = 1, wall at x = 0 (u(t, 0) >= 0),
-u0(x) = 1/2 - x/2, v0 = 0. Periodic with period 3 and energy 1/8.
-(Dabaghi, Petrov, Pousin & Renard 2014.)
+The 1D bar with multiple impacts (docs/method.md section 5): Omega = (0, 1),
+E = rho = 1, clamped at x = 1, wall at x = 0 (u(t, 0) >= 0), u0(x) = 1/2 - x/2,
+v0 = 0; periodic with period 3 and energy 1/8 (Dabaghi, Petrov, Pousin & Renard
+2014). Two bars colliding (docs/method.md section 11): in contact for 2L/c = 2 from
+their first touch, then apart with their velocities exchanged.
 """
 
 from __future__ import annotations
@@ -18,10 +20,13 @@ __all__ = [
     "BAR_ENERGY",
     "BAR_PERIOD",
     "BarSpaceTimeErrors",
+    "bar_contact_errors",
     "bar_contact_values",
     "bar_displacement",
     "bar_kinks",
     "bar_strain",
+    "observed_orders",
+    "two_bars_errors",
 ]
 
 BAR_PERIOD = 3.0
@@ -51,6 +56,56 @@ def bar_contact_values(t):
     v = np.where(s < 1.0, -0.5, np.where(s < 2.0, 0.0, 0.5))
     sigma = np.where((s > 1.0) & (s < 2.0), -0.5, 0.0)
     return u, v, sigma
+
+
+def bar_contact_errors(history, dt: float) -> dict[str, float]:
+    """The errors at x = 0 of a bar run (a :class:`~nitsche_dolfinx.history.History` with
+    the columns of :data:`~nitsche_dolfinx.cases.BAR_COLUMNS`), in l2(0, T) over its time
+    levels, e.g. (sum_n tau |u_h(t^n, 0) - u(t^n, 0)|^2)^(1/2): ``error_u_contact``,
+    ``error_v_contact``, ``error_sigma_contact`` (the recorded pressure against sigma);
+    ``energy_error_max``, max_n |E^n - 1/8|; ``penetration_max``, max_n -u_h(t^n, 0) (or 0)."""
+    u, v, sigma = bar_contact_values(history["t"])
+    return {
+        "error_u_contact": np.sqrt(dt * np.sum((history["u_contact"] - u) ** 2)),
+        "error_v_contact": np.sqrt(dt * np.sum((history["v_contact"] - v) ** 2)),
+        "error_sigma_contact": np.sqrt(dt * np.sum((history["sigma_contact"] - sigma) ** 2)),
+        "energy_error_max": np.max(np.abs(history["energy"] - BAR_ENERGY)),
+        "penetration_max": max(-np.min(history["u_contact"]), 0.0),
+    }
+
+
+def observed_orders(h, errors) -> list[float]:
+    """log(e_{k-1} / e_k) / log(h_{k-1} / h_k) between consecutive levels of mesh sizes
+    ``h`` (NaN for the first level, and where an error is zero)."""
+    errors, h = np.asarray(errors, dtype=float), np.asarray(h, dtype=float)
+    ratios = h[:-1] / h[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return [np.nan, *(np.log(errors[:-1] / errors[1:]) / np.log(ratios))]
+
+
+def two_bars_errors(history, v0: float, gap: float) -> dict[str, float]:
+    """The relative errors of a run of two bars colliding (speeds +-v0, ``gap`` apart; the
+    columns of ``demos/two_bars_1d.py``) against the exact pair: it touches at
+    t0 = gap / (2 v0) and separates at t0 + 2, the left bar then at -v0, the right at +v0
+    (checked from 0.2 after), the energy unchanged. Also the largest |momentum| / v0 and
+    the mean Newton iterations."""
+    touching = history["t"][history["contact_force"] > 0]
+    start = gap / (2 * v0)
+    duration = (touching.max() - touching.min()) if len(touching) else 0.0
+    after = history["t"] > start + 2.0 + 0.2
+    exit_error = np.nan
+    if after.any():
+        right = np.abs(history["v_right"][after] - v0).max()
+        exit_error = max(right, np.abs(history["v_left"][after] + v0).max()) / v0
+    energy = history["energy"]
+    return {
+        "contact_start": touching.min() if len(touching) else np.nan,
+        "duration_error": abs(duration - 2.0) / 2.0,
+        "exit_velocity_error": exit_error,
+        "energy_error": abs(energy[-1] - energy[0]) / energy[0],
+        "momentum_max": np.abs(history["momentum"]).max() / v0,
+        "newton": history.mean_newton_iterations(),
+    }
 
 
 def bar_strain(t, x):

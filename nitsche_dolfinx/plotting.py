@@ -1,5 +1,6 @@
 """Figures of histories with matplotlib (optional): the guard every figure goes through,
-the energy figure of the impact demos and the panels of the 1D bar.
+the energy figure of the impact demos, the figures of the 1D bar (its four panels, the
+comparison of methods, the convergence study) and of two bars colliding.
 
 Every function here is called on rank 0 with the histories returned by
 :meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>` (or read back
@@ -12,7 +13,21 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["BAR_PANELS", "bar_panels", "energy_figure", "latex_number", "pyplot", "save"]
+__all__ = [
+    "BAR_METHOD_STYLES",
+    "BAR_PANELS",
+    "SCHEME_COLOURS",
+    "bar_figure",
+    "bar_panels",
+    "comparison_figure",
+    "convergence_figure",
+    "energy_figure",
+    "latex_number",
+    "pyplot",
+    "save",
+    "slope_triangle",
+    "two_bars_figure",
+]
 
 
 def pyplot():
@@ -46,6 +61,15 @@ def latex_number(x: float) -> str:
     power = f"10^{{{int(exponent)}}}"
     return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
+
+#: A colour per time scheme (:data:`~nitsche_dolfinx.schemes.SCHEMES`), the same in every
+#: figure that compares schemes.
+SCHEME_COLOURS = {
+    "hybrid": "tab:blue",
+    "cn": "tab:red",
+    "theta": "tab:green",
+    "newmark": "tab:orange",
+}
 
 #: The parts of E^h drawn with a single run's energy.
 _PARTS = (
@@ -134,3 +158,158 @@ def bar_panels(axes, histories: Sequence, labels: Sequence[str], styles: Sequenc
             ax.plot(history["t"], history[name], label=label, **style)
         ax.set_title(title)
         ax.grid(alpha=0.3)
+
+
+def bar_figure(histories: Sequence, labels: Sequence[str], title: str, path: str, t_end) -> None:
+    """The talk's figure of the bar: the four :data:`BAR_PANELS` of every run over the exact
+    solution, the first run (blue, on top) with its E_Theta^h, the others in red."""
+    plt = pyplot()
+    if plt is None:
+        return
+    styles = [{"color": "tab:blue", "lw": 1.1, "alpha": 0.9, "zorder": 2}]
+    styles += [{"color": "tab:red", "lw": 0.9, "alpha": 0.8, "zorder": 1}] * (len(histories) - 1)
+    fig, axes = plt.subplots(2, 2, figsize=(12, 7.5), sharex=True, constrained_layout=True)
+    bar_panels(axes.flat, histories, labels, styles, t_end)
+    # E_Theta of the main run: the hybrid scheme guarantees that it never increases
+    main = histories[0]
+    axes[1, 1].plot(
+        main["t"], main["energy_theta"], color="tab:cyan", lw=1.1, ls="--", zorder=2,
+        label=rf"$E_\Theta^h$, {labels[0]}",
+    )  # fmt: skip
+    for ax in axes[1]:
+        ax.set_xlabel("time $t$")
+    axes[1, 1].legend(loc="upper left", fontsize="small")
+    fig.suptitle(title)
+    save(fig, path, dpi=150)
+
+
+#: Colours, markers and stacking of the methods of
+#: :data:`~nitsche_dolfinx.cases.BAR_METHODS` in the figures (the smooth curves on top of
+#: the oscillating ones).
+BAR_METHOD_STYLES = {
+    "hybrid": {"color": "tab:blue", "marker": "o", "zorder": 3, "ls": "-"},
+    "cn": {"color": "tab:red", "marker": "s", "zorder": 2, "ls": "-"},
+    "mixed": {"color": "tab:orange", "marker": "^", "zorder": 1, "ls": "-"},
+    "modified_mass": {"color": "tab:green", "marker": "D", "zorder": 5, "ls": "-"},
+    "penalty": {"color": "tab:purple", "marker": "v", "zorder": 4, "ls": "--"},
+}
+
+
+def comparison_figure(
+    methods: dict, histories: Sequence, title: str, path: str, t_end,
+    zoom=((3.95, 5.1), (-3e-4, 6.5e-3)),
+) -> None:  # fmt: skip
+    """The talk's "Mixed(+CN) vs Nitsche(+CN) vs Nitsche-Hybrid": the :data:`BAR_PANELS`
+    of the runs of ``methods`` (a key of :data:`BAR_METHOD_STYLES` to a
+    :class:`~nitsche_dolfinx.cases.BarMethod`), each over the exact solution, and a zoom
+    (x and y limits) on the displacement during the second contact phase. The velocity of
+    a run with the redistributed mass is its mean over each step."""
+    plt = pyplot()
+    if plt is None:
+        return
+    fig = plt.figure(figsize=(14, 8.5), constrained_layout=True)
+    grid = fig.add_gridspec(2, 6)
+    # the displacement, a zoom on it, and the three other panels of the talk
+    ax_zoom = fig.add_subplot(grid[0, 2])
+    axes = [fig.add_subplot(grid[0, 0:2]), fig.add_subplot(grid[0, 3:])]
+    axes += [fig.add_subplot(grid[1, :3]), fig.add_subplot(grid[1, 3:])]
+    labels = [
+        method.label + (r", $(u^{n+1} - u^n)/\tau$" if method.mass == "redistributed" else "")
+        for method in methods.values()
+    ]
+    styles = []
+    for name in methods:
+        style = BAR_METHOD_STYLES[name]
+        styles.append({"color": style["color"], "ls": style["ls"], "lw": 0.9, "alpha": 0.9,
+                       "zorder": style["zorder"]})  # fmt: skip
+    bar_panels(axes, histories, labels, styles, t_end)
+    for ax in axes:
+        ax.set_xlabel("time $t$")
+    axes[1].legend(loc="upper left", fontsize="x-small")
+    # who stays on the wall during the second contact phase
+    bar_panels([ax_zoom], histories, labels, styles, t_end)
+    ax_zoom.set_xlim(*zoom[0])
+    ax_zoom.set_ylim(*zoom[1])
+    ax_zoom.set_title("zoom: second contact", fontsize="medium")
+    ax_zoom.set_xlabel("time $t$")
+    fig.suptitle(title)
+    save(fig, path, dpi=150)
+
+
+def slope_triangle(ax, x0: float, y0: float, slope: float, label: str, width: float = 2.0):
+    """A reference triangle of the given slope with its lower-left corner at (x0, y0)."""
+    x1, y1 = x0 * width, y0 * width**slope
+    ax.plot([x0, x1, x1, x0], [y0, y0, y1, y0], color="dimgray", lw=0.9)
+    ax.text(x1 * 1.05, np.sqrt(y0 * y1), label, fontsize="small", color="dimgray", va="center")
+
+
+#: The panels of the convergence figure: (errors of
+#: :func:`~nitsche_dolfinx.cases.bar_convergence_level`, solid then dashed; title).
+CONVERGENCE_PANELS = (
+    (("error_l2_l2",), r"$u$ in $\ell^2(\tau; L^2(0, 1))$"),
+    (("error_l2_h1",), r"$u$ in $\ell^2(\tau; H^1(0, 1))$ (seminorm)"),
+    (
+        ("error_pressure", "error_stress"),
+        r"pressure at $x = 0$ in $\ell^2(\tau)$: $\lambda_h$ (solid), $\sigma_n(u_h)$ (dashed)",
+    ),
+    (("error_energy",), r"energy: $\max_n |E^{h,n} - 1/8|$"),
+)
+
+
+def convergence_figure(results: dict, labels: dict, title: str, path: str) -> None:
+    """The talk's error curves: four log-log panels against h (:data:`CONVERGENCE_PANELS`),
+    one curve per method (``results``: a key of :data:`BAR_METHOD_STYLES` to the rows of
+    :func:`~nitsche_dolfinx.cases.bar_convergence_level`, ``labels``: the same keys to the
+    legend), with reference slopes 1/2 and 1 below the curves."""
+    plt = pyplot()
+    if plt is None:
+        return
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
+    fig.subplots_adjust(left=0.07, right=0.97, top=0.92, bottom=0.1, hspace=0.28, wspace=0.2)
+    for ax, (names, panel_title) in zip(axes.flat, CONVERGENCE_PANELS):
+        low = np.inf
+        for name, rows in results.items():
+            style = BAR_METHOD_STYLES[name]
+            h = np.array([row["h"] for row in rows])
+            for error, line in zip(names, ("-", "--")):
+                values = np.array([row[error] for row in rows])
+                ax.loglog(
+                    h, values, color=style["color"], marker=style["marker"], ls=line, ms=5,
+                    label=labels[name] if line == "-" else None,
+                )  # fmt: skip
+                low = min(low, values.min())
+        # the reference slopes, below every curve, over the finest levels
+        h = np.sort([row["h"] for row in next(iter(results.values()))])
+        slope_triangle(ax, h[0] * 1.15, low / 1.8, 0.5, "1/2")
+        slope_triangle(ax, h[0] * 1.15 * 2.0**1.6, low / 1.8, 1.0, "1")
+        ax.set_xticks(h)
+        ax.set_xticks([], minor=True)
+        ax.set_xticklabels([f"1/{round(1 / x)}" for x in h])
+        ax.set_title(panel_title, fontsize="medium")
+        ax.set_xlabel("$h$")
+        ax.grid(alpha=0.3, which="both")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="lower center", ncol=len(results))
+    fig.suptitle(title)
+    save(fig, path, dpi=150)
+
+
+def two_bars_figure(history, v0: float, gap: float, path: str) -> None:
+    """Two bars colliding: the mean velocity of each bar over the exact end states, and the
+    contact force over the exact rho c v0 (E = rho = 1)."""
+    plt = pyplot()
+    if plt is None:
+        return
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    t = history["t"]
+    start = gap / (2 * v0)
+    exact = np.where((t > start) & (t < start + 2), 0.0, np.where(t < start, 1.0, -1.0))
+    top.plot(t, history["v_right"], label="right bar")
+    top.plot(t, history["v_left"], label="left bar")
+    top.plot(t, -v0 * exact, "k:", lw=0.8, label="exact (end states)")
+    top.set_ylabel("mean velocity")
+    top.legend()
+    bottom.plot(t, history["contact_force"], label="contact force")
+    bottom.axhline(v0, color="k", ls=":", lw=0.8, label=r"$\rho c v_0$")
+    bottom.set_xlabel("t")
+    bottom.legend()
+    save(fig, path, dpi=110)

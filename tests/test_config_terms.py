@@ -351,12 +351,12 @@ def test_sweep_over_E_compiles_once(tmp_path, compilations):
     assert not compiled[1] and not compiled[2], compiled
 
 
-# -- the README's example ------------------------------------------------------------------
+# -- the example of docs/usage.md ----------------------------------------------------------
 
 
 @pytest.mark.parametrize("linear_solver", ["auto", "lu"])
 def test_readme_configuration_runs(tmp_path, linear_solver):
-    """The README's TOML block with a symmetry plane, selectors and point probes: the
+    """The TOML block of docs/usage.md with a symmetry plane, selectors and point probes: the
     block starts 0.01 above the ground at speed 1 (u_y = 0.01 at the corner and on the
     top, centre of mass 0.51 up, momentum -rho |Omega| = -2), bounces, and once released
     keeps its momentum along y and moves its centre of mass by it (no load).
@@ -367,9 +367,9 @@ def test_readme_configuration_runs(tmp_path, linear_solver):
     default's histories follow those of direct solves."""
     import re
 
-    text = open(os.path.join(os.path.dirname(os.path.dirname(__file__)), "README.md")).read()
-    example = re.search(r"<!-- readme-toml -->\s*```toml\n(.*?)```", text, flags=re.S)
-    assert example, "README.md lost its marked TOML example"
+    usage = os.path.join(os.path.dirname(os.path.dirname(__file__)), "docs", "usage.md")
+    example = re.search(r"<!-- usage-toml -->\s*```toml\n(.*?)```", open(usage).read(), re.S)
+    assert example, "docs/usage.md lost its marked TOML example"
     assert "linear_solver" not in example.group(1)  # the example runs the default
     given = example.group(1) + (f'\n[solver]\nlinear_solver = "{linear_solver}"\n')
     config, simulation = configured(tmp_path, given)

@@ -6,20 +6,17 @@ and on two processes); each bound is a little above (or below) the measured valu
 docstring of the test gives. Every test runs in about a second.
 """
 
-import os
-import sys
-
 import numpy as np
 import pytest
 
 from nitsche_dolfinx import cases
-from nitsche_dolfinx.exact import BAR_ENERGY, BarSpaceTimeErrors, bar_displacement
-from nitsche_dolfinx.schemes import make_scheme
-
-sys.path.insert(
-    0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "demos")
+from nitsche_dolfinx.exact import (
+    BAR_ENERGY,
+    BarSpaceTimeErrors,
+    bar_displacement,
+    observed_orders,
 )
-from convergence_1d import METHODS, observed_orders, run_level  # noqa: E402
+from nitsche_dolfinx.schemes import make_scheme
 
 pytestmark = pytest.mark.mpi  # the errors and probes are reduced over the ranks
 
@@ -58,12 +55,16 @@ def test_hybrid_converges_with_tau_over_h_fixed():
     Measured: l2(L2) 2.06e-2, 1.24e-2, 7.67e-3 (orders 0.73, 0.70); l2(H1) 0.220, 0.179,
     0.143 (0.30, 0.33); max |E - 1/8| 4.2e-3, 1.6e-3, 9.7e-4.
     """
-    rows = [run_level(METHODS["hybrid"], nx, 1.5, 3.0, 1e-6) for nx in (25, 50, 100)]
+    hybrid = cases.BAR_METHODS["hybrid"]
+    rows = [
+        cases.bar_convergence_level(hybrid, nx, 1.5 * (1.0 / nx), 3.0, 1e-6) for nx in (25, 50, 100)
+    ]
+    h = [row["h"] for row in rows]
     for name in ("error_l2_l2", "error_l2_h1", "error_energy", "error_stress"):
         errors = [row[name] for row in rows]
         assert errors[0] > errors[1] > errors[2], name
-    assert min(observed_orders(rows, "error_l2_l2")[1:]) > 0.65
-    assert min(observed_orders(rows, "error_l2_h1")[1:]) > 0.27
+    assert min(observed_orders(h, [row["error_l2_l2"] for row in rows])[1:]) > 0.65
+    assert min(observed_orders(h, [row["error_l2_h1"] for row in rows])[1:]) > 0.27
     assert rows[-1]["error_l2_l2"] == pytest.approx(7.67e-3, rel=0.01)
 
 

@@ -1,7 +1,11 @@
 """The demos run as users run them: as scripts, with the flags and outputs of docs/method.md
 section 6."""
 
+import contextlib
+import io
 import os
+import re
+import runpy
 import subprocess
 import sys
 
@@ -13,6 +17,11 @@ from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))
+#: The flags every demo takes (docs/method.md section 6): the common ones, then the scheme
+#: and Nitsche flags.
+COMMON_FLAGS = ("--out", "--quiet", "--no-plot", "--output-every", "--version")
+METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--nitsche-theta", "--gamma0")
 
 
 def run_demo(name, *args):
@@ -24,6 +33,88 @@ def run_demo(name, *args):
         env=env,
         timeout=600,
     )
+
+
+def demo_help(name: str) -> str:
+    """What ``demos/<name> --help`` prints, the demo run as a script in this process."""
+    folder = os.path.join(REPO, "demos")
+    saved = sys.argv, list(sys.path)
+    sys.argv = [os.path.join(folder, name), "--help"]
+    sys.path.insert(0, folder)  # disk_2d.py and two_disks_2d.py import their 3D demo
+    text = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(text), pytest.raises(SystemExit) as stop:
+            runpy.run_path(sys.argv[0], run_name="__main__")
+    finally:
+        sys.argv, sys.path[:] = saved
+    assert stop.value.code == 0, name
+    return text.getvalue()
+
+
+@pytest.mark.parametrize("name", DEMOS)
+def test_every_demo_takes_the_common_flags(name):
+    """--out, --quiet, --no-plot, --output-every, --version, and the scheme and Nitsche
+    flags, in every demo's --help."""
+    shown = set(re.findall(r"--[a-z0-9-]+", demo_help(name)))
+    missing = [flag for flag in (*COMMON_FLAGS, *METHOD_FLAGS) if flag not in shown]
+    assert not missing, (name, missing)
+
+
+def loop_and_run(tmp_path, ranks: int) -> tuple:
+    """``demos/bar_loop_1d.py`` with its loop and with ``--run`` (Simulation.run), the talk's
+    bar to T = 3 (an impact and a release), fields every 20 steps: the two output folders."""
+    outs = (tmp_path / "loop", tmp_path / "run")
+    flags = ["--t-end", "3", "--output-every", "20", "--no-plot", "--quiet"]
+    for out, extra in zip(outs, ([], ["--run"])):
+        result = run("demos/bar_loop_1d.py", *flags, *extra, "--out", str(out), ranks=ranks)
+        assert result.returncode == 0, result.stderr
+    return outs
+
+
+def assert_same_files(a, b) -> None:
+    """history.csv equal byte for byte; solution.xdmf's levels and every HDF5 dataset equal."""
+    assert (a / "history.csv").read_bytes() == (b / "history.csv").read_bytes()
+    times = assert_xdmf_readable(str(a / "solution.xdmf"), 3.0)
+    assert times == assert_xdmf_readable(str(b / "solution.xdmf"), 3.0)
+    assert times == pytest.approx(np.arange(0.0, 3.0 + 1e-9, 0.3))
+    h5py = pytest.importorskip("h5py")
+
+    def datasets(path) -> dict:
+        found = {}
+
+        def keep(name, item):
+            if isinstance(item, h5py.Dataset):
+                found[name] = item[()]
+
+        with h5py.File(path, "r") as h5:
+            h5.visititems(keep)
+        return found
+
+    first, second = datasets(a / "solution.h5"), datasets(b / "solution.h5")
+    assert first and list(first) == list(second)
+    for name, values in first.items():
+        assert np.array_equal(values, second[name]), name
+
+
+def test_loop_demo_is_simulation_run(tmp_path):
+    """The time loop written out (step, state, HistoryWriter, SolutionWriter) writes what
+    Simulation.run writes, to the bit: the same computation in the same order. And it is
+    the run of demos/bar_1d.py."""
+    loop, shortcut = loop_and_run(tmp_path, ranks=1)
+    assert_same_files(loop, shortcut)
+    history = read_history(str(loop / "history.csv"))
+    assert len(history["t"]) == 201 and np.all(history["sigma_contact"] <= 0)
+    bar = tmp_path / "bar"
+    flags = ["--t-end", "3", "--output-every", "0", "--no-compare", "--no-plot", "--quiet"]
+    result = run_demo("bar_1d.py", *flags, "--out", str(bar))
+    assert result.returncode == 0, result.stderr
+    assert (bar / "history.csv").read_bytes() == (loop / "history.csv").read_bytes()
+
+
+@pytest.mark.skipif(MPIRUN is None, reason="needs mpirun")
+def test_loop_demo_is_simulation_run_on_two_ranks(tmp_path):
+    """The same on two ranks: every rank steps, the writers gather."""
+    assert_same_files(*loop_and_run(tmp_path, ranks=2))
 
 
 def test_bar_demo_writes_history_and_figure(tmp_path):
@@ -57,7 +148,7 @@ def test_bar_demo_bad_flags(tmp_path, flags, named):
 
 
 def test_two_bars_demo_contract(tmp_path):
-    """SPEC section 7: the columns, the momentum kept, the velocities exchanged; the
+    """docs/method.md section 6: the columns, the momentum kept, the velocities exchanged; the
     energy figure and the picture of the bars in space and time."""
     out = tmp_path / "bars"
     result = run_demo(
@@ -81,7 +172,7 @@ def test_two_bars_demo_contract(tmp_path):
 
 
 def test_two_disks_demo_contract(tmp_path):
-    """SPEC section 7: the columns of section 6 then the momentum; the symmetric check
+    """docs/method.md section 6: the columns of section 6 then the momentum; the symmetric check
     against one disk on the plane; both bodies in solution.xdmf."""
     out = tmp_path / "disks"
     result = run_demo(
