@@ -104,8 +104,8 @@ with one_line_errors(parser):
 # level. `state()` is collective: every rank calls it, and gets the same numbers
 # (energies, contact force, the probes; `simulation.u` and `simulation.v` are the
 # Functions themselves). The history is written by rank 0, the fields by every
-# rank together; before they are written, `stepper.before_output()` projects the
-# contact fields (pressure, gap, status) onto $\Gamma_C$.
+# rank together (the contact fields, pressure, gap and status, are projected onto
+# $\Gamma_C$ for the levels written).
 
 columns = cases.BAR_COLUMNS  # t, u_contact, v_contact, sigma_contact, energy, ...
 with one_line_errors(parser):
@@ -122,7 +122,6 @@ with one_line_errors(parser):
         history.append(simulation.state())  # the level t = 0
         writer.write(history[-1])
         if fields is not None:
-            simulation.stepper.before_output()
             fields.write(simulation.t)
         while not simulation.finished:
             simulation.step()
@@ -130,7 +129,6 @@ with one_line_errors(parser):
             history.append(row)
             writer.write(row)
             if fields is not None and simulation.step_index % args.output_every == 0:
-                simulation.stepper.before_output()
                 fields.write(simulation.t)
             if not args.quiet and comm.rank == 0 and simulation.step_index % 50 == 0:
                 print(f"t = {simulation.t:7.3f}  u(t, 0) = {row['u_contact']:+.4f}  "

@@ -25,6 +25,7 @@ from .diagnostics import BoundaryField
 
 __all__ = [
     "ContactFields",
+    "LevelRefresh",
     "NodalMean",
     "OnBoundary",
     "OutputMesh",
@@ -242,6 +243,44 @@ class ContactFields:
         if self.pressure is not None:
             self.pressure.update()
         self.status.update()
+
+
+class LevelRefresh:
+    """Runs ``refresh()`` at most once per time level (``level()``, e.g. a stepper's step
+    index and time), when a field source that needs it is first evaluated: the projections
+    of the contact and friction fields are computed for the levels that are written only,
+    whoever writes them (:meth:`Simulation.run <nitsche_dolfinx.simulation.Simulation.run>`
+    or a time loop of the user's with :class:`~nitsche_dolfinx.output.SolutionWriter`).
+
+    Args:
+        refresh: Brings the sources up to date with the state (collective).
+        level: The current level, any value that changes from one level to the next.
+    """
+
+    def __init__(self, refresh, level):
+        self._refresh, self._level, self._done = refresh, level, None
+
+    def ensure(self) -> None:
+        """Refresh, unless done at this level already."""
+        level = self._level()
+        if level != self._done:
+            self._refresh()
+            self._done = level
+
+    def wrap(self, source) -> _Refreshed:
+        """``source`` (an object with ``evaluate(target)``), refreshed before it is evaluated."""
+        return _Refreshed(source, self)
+
+
+class _Refreshed:
+    """A field source evaluated after its :class:`LevelRefresh`."""
+
+    def __init__(self, source, refresh: LevelRefresh):
+        self.source, self._refresh = source, refresh
+
+    def evaluate(self, target) -> None:
+        self._refresh.ensure()
+        self.source.evaluate(target)
 
 
 class OutputMesh:

@@ -32,7 +32,7 @@ from . import compat
 from .contact import positive_part
 from .diagnostics import MassMoments, Penetration, assemble_global
 from .dirichlet import DirichletDofs
-from .fields import ContactFields
+from .fields import ContactFields, LevelRefresh
 from .linear_solvers import LinearSolver
 from .material import von_mises
 from .model import ContactProblem
@@ -299,17 +299,21 @@ class MixedStepper(TimeLevels):
             self._contact_fields = ContactFields(
                 self.problem, self.u, pressure=self.multiplier, in_contact=in_contact
             )
+        refresh = LevelRefresh(self._update_projections, lambda: (self.step_index, self.t))
+        contact = {
+            name: (refresh.wrap(f), s) for name, (f, s) in self._contact_fields.fields().items()
+        }
         return {
             "displacement": (self.u, shape),
             "velocity": (self.v, shape),
             "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
-            **self._contact_fields.fields(),
+            **contact,
         }
 
-    def before_output(self) -> None:
+    def _update_projections(self) -> None:
+        """The multiplier and the contact fields' projections at the state."""
         self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
-        if self._contact_fields is not None:
-            self._contact_fields.update()  # lambda and the state are those of the level
+        self._contact_fields.update()  # lambda and the state are those of the level
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]

@@ -417,7 +417,6 @@ class _Run:
         if self.writer is not None:
             self.writer.write(values)
         if self.fields is not None and sim.step_index % self.output.output_every == 0:
-            sim.stepper.before_output()
             self.fields.write(sim.t)
         self.progress.record(sim.step_index, sim.t, values)
 

@@ -23,7 +23,7 @@ from . import compat
 from .contact_terms import ContactTerms, contact_activity, contact_parts
 from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
-from .fields import ContactFields, OnBoundary
+from .fields import ContactFields, LevelRefresh, OnBoundary
 from .friction import FrictionOutput, GuardedNewton
 from .linear_solvers import LinearSolver
 from .material import von_mises
@@ -340,18 +340,18 @@ class NitscheStepper(TimeLevels):
         if self.problem.contacts:
             if self._contact_fields is None:  # compiled when first asked for
                 self._contact_fields = ContactFields(self.problem, self.u)
-            fields.update(self._contact_fields.fields())
+            on_contact = dict(self._contact_fields.fields())
             if self._friction is not None:
                 for field in self._friction.fields:
                     source = OnBoundary(field.function, self._contact_fields.facets)
-                    fields[field.function.name] = (source, shape)
+                    on_contact[field.function.name] = (source, shape)
+            refresh = LevelRefresh(self._update_projections, lambda: (self.step_index, self.t))
+            fields.update({name: (refresh.wrap(f), s) for name, (f, s) in on_contact.items()})
         return fields
 
-    def before_output(self) -> None:
-        """Update the boundary projections of the contact and friction fields (only when
-        written)."""
-        if self._contact_fields is not None:
-            self._contact_fields.update()
+    def _update_projections(self) -> None:
+        """The boundary projections of the contact and friction fields at the state."""
+        self._contact_fields.update()
         if self._friction is not None:
             self._friction.update_fields()
 

@@ -42,3 +42,14 @@ def test_code_references_name_the_package(document):
                 missing.append(name)
                 break
     assert not missing, f"docs/{document} names what the package lacks: {missing}"
+
+
+def test_layout_lists_every_module():
+    """docs/layout.md has a row for each module of the package, and none that is gone."""
+    with open(os.path.join(REPO, "docs", "layout.md")) as f:
+        text = f.read()
+    listed = set(re.findall(r"`(\w+\.py)`", text.split("And around the package")[0]))
+    present = {name for name in os.listdir(os.path.dirname(nitsche_dolfinx.__file__))}
+    present = {name for name in present if name.endswith(".py")}
+    assert present - listed == set(), "modules missing from docs/layout.md"
+    assert listed - present == set(), "docs/layout.md lists modules that are gone"

@@ -155,7 +155,7 @@ def check_fields(simulation, history, levels, every, centre, radius) -> None:
     ds = problem.ds(problem.contact_tags[0])
     integrals = (("contact_pressure", "contact_force", -1), ("contact_status", "contact_area", 1))
     for name, column, sign in integrals:
-        local = fem.assemble_scalar(fem.form(fields[name][0].function * ds))
+        local = fem.assemble_scalar(fem.form(fields[name][0].source.function * ds))
         value = problem.mesh.comm.allreduce(local, op=MPI.SUM)
         assert value == pytest.approx(sign * history[column][-1], rel=1e-10), name
 
