@@ -79,11 +79,11 @@ from nitsche_dolfinx.arguments import (
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS as COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import bar_contact_values
 from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES
 from nitsche_dolfinx.plotting import bar_panels, latex_number, pyplot, save

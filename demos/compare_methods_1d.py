@@ -64,8 +64,9 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import cases
-from nitsche_dolfinx.arguments import add_terminal_arguments, finite_float, one_line_errors
+from nitsche_dolfinx.arguments import add_terminal_arguments, finite_float
 from nitsche_dolfinx.cases import BAR_COLUMNS
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
 from nitsche_dolfinx.parameters import OutputParameters
 from nitsche_dolfinx.plotting import bar_panels, latex_number, pyplot, save

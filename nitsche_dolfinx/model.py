@@ -36,7 +36,6 @@ from .parameters import (
     MASS_MATRICES,
     Discretisation,
     NitscheParameters,
-    check_gamma0,
     require,
     require_choice,
 )
@@ -109,8 +108,8 @@ class ContactProblem:
         gamma0_scaling: str = "absolute",
     ):
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
-        check_gamma0(nitsche.gamma0, nitsche.gamma0_scaling, material.E)
-        discretisation = Discretisation(int(degree), mass, quadrature_degree)
+        nitsche.check_scale(material.E)
+        discretisation = Discretisation(degree, mass, quadrature_degree)
         compat.stable_form_signatures(mesh)  # a sweep finds its compiled forms
         self.mesh = mesh
         self.facet_tags = facet_tags

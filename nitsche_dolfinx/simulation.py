@@ -25,7 +25,7 @@ from .linear_solvers import linear_solver as linear_solver_preset
 from .linear_solvers import rigid_body_modes
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, continue_solution, ensure_directory
-from .parameters import OutputParameters, TimeStepping
+from .parameters import OutputParameters, SolverParameters, TimeStepping
 from .progress import Progress
 from .schemes import TimeScheme
 from .signals import RunInterrupted, StopSignals
@@ -108,6 +108,7 @@ class Simulation:
         max_step_cuts: int = 5,
     ):
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         self.max_step_cuts = int(max_step_cuts)
         chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
         if linear_solver == "auto" and chosen:
