@@ -32,6 +32,7 @@ from .parameters import Discretisation, NitscheParameters, OutputParameters, Tim
 from .schemes import TimeScheme, make_scheme
 
 __all__ = [
+    "METHOD_FLAGS",
     "TOML_DEFAULT",
     "MethodParameters",
     "add_method_arguments",

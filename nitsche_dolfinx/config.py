@@ -123,8 +123,10 @@ def _read(path: str) -> dict:
     """The tables of the TOML file ``path``; every way it can fail is named with the file."""
     if os.path.isdir(path):
         raise ConfigError(f"{path}: the configuration is a folder, not a TOML file")
-    if not os.path.isfile(path):
+    if not os.path.exists(path):
         raise ConfigError(f"{path}: configuration file does not exist")
+    if not os.path.isfile(path):
+        raise ConfigError(f"{path}: the configuration is not a regular file (a device?)")
     if tomllib is None:
         raise ConfigError(f"{path}: reading TOML needs Python >= 3.11 or the tomli package")
     try:

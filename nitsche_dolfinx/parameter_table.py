@@ -96,6 +96,7 @@ class Parameter:
         return "none" if default is None else toml_text(default)
 
     def flag_default_text(self) -> str:
+        """The flag's default in words (empty: no flag)."""
         if self.flag is None:
             return ""
         if self.flag_default is None:
@@ -118,7 +119,7 @@ def _key(kind, default, meaning, choices=(), shown=None) -> Key:
 
 
 #: Every run parameter, in the order of the docs: scheme and steps, contact, elements,
-#: material, solver, output.
+#: material, initial values, solver, output.
 PARAMETERS: tuple[Parameter, ...] = (
     Parameter("scheme", "Simulation", "[scheme] name", "--scheme",
               _key("string", "hybrid", "the time scheme (API: a TimeScheme, e.g. "

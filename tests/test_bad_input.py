@@ -643,6 +643,7 @@ def test_cli_refuses_bad_flags(tmp_path):
     cases = [
         (["run", str(binary)], f"{binary}: not a TOML file: not UTF-8 text (byte 0x80 at offset"),
         (["run", MESH], f"{MESH}: not valid TOML"),
+        (["run", "/dev/null"], "/dev/null: the configuration is not a regular file"),
         (["run", config, "--checkpoint-every", "-1"], "--checkpoint-every -1"),
         (["run", config, "--out", str(a_file)], "is a file, not a folder"),
         (["run", str(tmp_path / "missing.toml")], "configuration file does not exist"),
