@@ -61,11 +61,11 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     finite_float,
     method_parameters,
-    one_line_errors,
     petsc_option,
 )
 from nitsche_dolfinx.cases import IMPACT_SCHEMES, impact_problem
 from nitsche_dolfinx.checkpoint import has_checkpoint
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
 from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 from nitsche_dolfinx.parameters import require

@@ -64,11 +64,11 @@ from nitsche_dolfinx.arguments import (
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES, require
 from nitsche_dolfinx.plotting import bar_figure, latex_number
 from nitsche_dolfinx.reports import bar_summary

@@ -46,9 +46,9 @@ from nitsche_dolfinx.arguments import (
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import bar_contact_errors
 from nitsche_dolfinx.output import HistoryWriter, SolutionWriter
 from nitsche_dolfinx.parameters import require

@@ -61,10 +61,10 @@ from nitsche_dolfinx.arguments import (
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS, BAR_METHODS
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.plotting import comparison_figure, latex_number
 from nitsche_dolfinx.reports import COMPARISON_COLUMNS, comparison_row, comparison_table, write_csv
 from nitsche_dolfinx.schemes import make_scheme

@@ -63,10 +63,10 @@ from nitsche_dolfinx.arguments import (
     add_terminal_arguments,
     finite_float,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.plotting import convergence_figure, latex_number
 from nitsche_dolfinx.reports import (

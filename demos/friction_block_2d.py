@@ -63,10 +63,10 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     finite_float,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
 from nitsche_dolfinx.cases import add_block_probes, block_problem
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS
 from nitsche_dolfinx.reports import friction_summary
 

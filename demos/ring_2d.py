@@ -75,9 +75,9 @@ from nitsche_dolfinx.arguments import (
     add_method_arguments,
     add_terminal_arguments,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.plotting import energy_figure, latex_number
 from nitsche_dolfinx.reports import run_summary

@@ -43,9 +43,9 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     finite_float,
     method_parameters,
-    one_line_errors,
     scheme_from_arguments,
 )
+from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed

@@ -1,74 +1,53 @@
 """Command-line pieces shared by the demos and the ``nitsche-dolfinx`` command: the method
-flags of docs/method.md section 6, the checkpoint flags, early checks, and errors reported
-as one line.
+flags of docs/method.md section 6, the run and terminal flags, and early checks.
 
 Every demo takes the same scheme and Nitsche flags (``--scheme``, ``--theta``,
 ``--beta``, ``--gamma``, ``--nitsche-theta``, ``--gamma0``, ``--gamma0-scaling``,
 ``--degree``, ``--dt``, ``--t-end``, ``--max-step-cuts``); :func:`add_method_arguments`
 adds them with the demo's defaults and :func:`method_parameters` turns them into the
 validated parameter objects of :mod:`nitsche_dolfinx.parameters` before anything is
-computed. A bad value is reported under the flag that gave it (``--gamma0 0: ...``).
+computed. Each flag is made by :func:`add_parameter_argument` from its row of
+:data:`~nitsche_dolfinx.parameter_table.PARAMETERS` (its kind, default and meaning), so
+that a flag, its TOML key and its API keyword cannot drift apart.
 :func:`add_run_arguments` adds ``--checkpoint-every`` and ``--restart``;
 :func:`add_terminal_arguments` the flags every demo has: ``--output-every``, ``--quiet``
-and ``--version``.
-
-:func:`one_line_errors` stops a demo with one line naming the problem, never a
-traceback, and an exit status that says what happened:
-
-- 2: a bad parameter (out of range, a file that cannot be read or written, wrong
-  PETSc options), found before computing;
-- 1: the run failed (Newton did not converge; the last converged state is saved);
-- 130 or 143: the run was interrupted by SIGINT or SIGTERM (its state is saved).
-
-Under MPI, an error that every rank raises (as validation does) is printed once,
-by rank 0. An error raised on some ranks only would leave the others waiting
-forever in their next collective operation: the failing rank then prints it
-with its rank number and aborts the whole job (``MPI_Abort``).
+and ``--version``. A bad value is reported under the flag that gave it (``--gamma0 0:
+...``) by :func:`nitsche_dolfinx.errors.one_line_errors`.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import sys
-import traceback
+from dataclasses import fields
 from typing import NamedTuple
 
+import dolfinx
 import numpy as np
 from mpi4py import MPI
-from petsc4py import PETSc
 
-from .agreement import ERROR_AGREEMENT_SECONDS, FailureChannel
+from . import __version__
 from .output import ensure_directory
-from .parameters import (
-    GAMMA0_SCALINGS,
-    Discretisation,
-    NitscheParameters,
-    OutputParameters,
-    ParameterError,
-    TimeStepping,
-)
-from .schemes import SCHEMES, TimeScheme, make_scheme
-from .signals import RunInterrupted
-from .solver import SolverError
+from .parameter_table import DEMO_DEFAULT, by_flag, by_name
+from .parameters import Discretisation, NitscheParameters, OutputParameters, TimeStepping
+from .schemes import TimeScheme, make_scheme
 
 __all__ = [
+    "METHOD_FLAGS",
+    "TOML_DEFAULT",
     "MethodParameters",
     "add_method_arguments",
     "add_output_every_argument",
+    "add_parameter_argument",
     "add_run_arguments",
     "add_terminal_arguments",
     "add_version_argument",
     "check_output_folder",
     "finite_float",
     "method_parameters",
-    "one_line_errors",
     "petsc_option",
+    "scheme_from_arguments",
     "version_text",
 ]
-
-#: Flags whose destination is not the parameter's name.
-_DESTINATIONS = {"friction": "mu"}
 
 
 def finite_float(text: str) -> float:
@@ -91,6 +70,39 @@ def petsc_option(text: str) -> tuple[str, str | None]:
     return key, (value.strip() if has_value and value.strip() else None)
 
 
+class _TomlDefault:
+    def __repr__(self):
+        return "the TOML default"
+
+
+#: The default of :func:`add_parameter_argument`: the parameter's TOML default.
+TOML_DEFAULT = _TomlDefault()
+
+
+def add_parameter_argument(
+    parser: argparse.ArgumentParser, flag: str, default=TOML_DEFAULT, **kwargs
+) -> argparse.Action:
+    """Add the flag ``flag`` of a run parameter (``"--gamma0"``), of the type of its kind,
+    with its choices and meaning; ``default`` (by default the TOML default of the
+    parameter) and ``kwargs`` (``metavar``, ``help``...) as for ``parser.add_argument``."""
+    parameter = by_flag(flag)
+    key = parameter.key
+    if default is TOML_DEFAULT:
+        if parameter.flag_default == DEMO_DEFAULT:
+            raise TypeError(f"{flag} has no default of its own: give the demo's")
+        default = key.default
+    kind = {"number": finite_float, "integer": int, "string": str}[key.kind]
+    options = {"type": kind, "default": default, "help": key.meaning}
+    if key.choices:
+        options["choices"] = key.choices
+    return parser.add_argument(flag, **{**options, **kwargs})
+
+
+#: The flags of :func:`add_method_arguments`, in their order.
+METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--nitsche-theta", "--gamma0",
+                "--gamma0-scaling", "--degree", "--dt", "--t-end", "--max-step-cuts")  # fmt: skip
+
+
 def add_method_arguments(
     parser: argparse.ArgumentParser,
     *,
@@ -101,45 +113,20 @@ def add_method_arguments(
     beta: float = 0.25,
     gamma: float = 0.5,
 ) -> None:
-    """Add the scheme and Nitsche flags of docs/method.md section 6 with the given defaults."""
-    parser.add_argument("--scheme", choices=SCHEMES, default="hybrid", help="time scheme")
-    parser.add_argument("--theta", type=finite_float, default=1.0, help="theta of the theta-scheme")
-    parser.add_argument("--beta", type=finite_float, default=beta, help="Newmark beta")
-    parser.add_argument("--gamma", type=finite_float, default=gamma, help="Newmark gamma")
-    parser.add_argument(
-        "--nitsche-theta",
-        type=finite_float,
-        default=1.0,
-        help="Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric",
-    )
-    parser.add_argument(
-        "--gamma0", type=finite_float, default=gamma0, help="Nitsche parameter, gamma_h = gamma0 h"
-    )
-    parser.add_argument(
-        "--gamma0-scaling",
-        choices=GAMMA0_SCALINGS,
-        default="absolute",
-        help="absolute: gamma_h = gamma0 h (gamma0 in 1/stress, the paper's); E: gamma_h = "
-        "gamma0 h / E (gamma0 without units, about 1e-3)",
-    )
-    parser.add_argument("--degree", type=int, default=degree, help="Lagrange degree (1 or 2)")
-    parser.add_argument("--dt", type=finite_float, default=dt, help="time step tau")
-    parser.add_argument("--t-end", type=finite_float, default=t_end, help="final time T")
-    parser.add_argument(
-        "--max-step-cuts",
-        type=int,
-        default=5,
-        metavar="N",
-        help="a step whose Newton fails is halved, down to dt/2^N, before the run stops",
-    )
+    """Add the scheme and Nitsche flags of docs/method.md section 6 with the given defaults
+    (the others: the TOML defaults)."""
+    given = {"--gamma0": gamma0, "--degree": degree, "--dt": dt, "--t-end": t_end,
+             "--beta": beta, "--gamma": gamma}  # fmt: skip
+    for flag in METHOD_FLAGS:
+        extra = {"metavar": "N"} if flag == "--max-step-cuts" else {}
+        add_parameter_argument(parser, flag, given.get(flag, TOML_DEFAULT), **extra)
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``--checkpoint-every K`` and ``--restart``."""
-    parser.add_argument(
+    add_parameter_argument(
+        parser,
         "--checkpoint-every",
-        type=int,
-        default=0,
         metavar="K",
         help="save the state in OUT/checkpoint every K steps and at the end (0: only when "
         "the run stops early, on a solver failure or SIGINT/SIGTERM)",
@@ -168,28 +155,23 @@ class MethodParameters(NamedTuple):
 
 
 def add_output_every_argument(parser: argparse.ArgumentParser, default: int = 10) -> None:
-    """Add ``--output-every N`` (checked by :func:`check_method_arguments`)."""
-    parser.add_argument(
+    """Add ``--output-every N`` (checked by :func:`method_parameters`)."""
+    add_parameter_argument(
+        parser,
         "--output-every",
-        type=int,
-        default=default,
+        default,
         help="write solution.xdmf every this many steps (0: never)",
     )
 
 
 def version_text(prog: str) -> str:
     """``prog`` with the versions of nitsche-dolfinx and of the dolfinx it runs on."""
-    import dolfinx
-
-    from . import __version__
-
     versions = f"nitsche-dolfinx {__version__} (dolfinx {dolfinx.__version__})"
     return versions if prog == "nitsche-dolfinx" else f"{prog}, {versions}"
 
 
 class _Version(argparse.Action):
-    """``--version``: print :func:`version_text` on rank 0 and exit (dolfinx is imported
-    only then)."""
+    """``--version``: print :func:`version_text` on rank 0 and exit."""
 
     def __init__(self, option_strings, dest, **kwargs):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
@@ -224,111 +206,29 @@ def method_parameters(args: argparse.Namespace) -> MethodParameters:
     is computed by the library's own checks.
 
     Raises:
-        ParameterError: For the first value out of range (:func:`one_line_errors` names
-            its flag).
+        ParameterError: For the first value out of range
+            (:func:`~nitsche_dolfinx.errors.one_line_errors` names its flag).
     """
     return MethodParameters(
         scheme=scheme_from_arguments(args),
-        time=TimeStepping(args.dt, args.t_end, args.max_step_cuts),
-        nitsche=NitscheParameters(
-            args.gamma0,
-            args.nitsche_theta,
-            getattr(args, "mu", None),
-            getattr(args, "method", "nitsche"),
-            args.gamma0_scaling,
-        ),
-        discretisation=Discretisation(args.degree, getattr(args, "mass", "consistent")),
-        output=OutputParameters(
-            getattr(args, "output_every", 0), getattr(args, "checkpoint_every", 0)
-        ),
+        time=_from_flags(TimeStepping, args),
+        nitsche=_from_flags(NitscheParameters, args),
+        discretisation=_from_flags(Discretisation, args),
+        output=_from_flags(OutputParameters, args),
     )
+
+
+def _from_flags(cls, args: argparse.Namespace):
+    """The parameter object ``cls`` with the values of the flags of its fields (the flag
+    of ``friction`` is ``--mu``); a field whose flag the demo lacks keeps its default."""
+    values = {}
+    for field in fields(cls):
+        parameter = by_name(field.name)
+        if parameter is not None and parameter.dest is not None and hasattr(args, parameter.dest):
+            values[field.name] = getattr(args, parameter.dest)
+    return cls(**values)
 
 
 def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
     """Create the output folder and check that it can be written (before computing)."""
     return ensure_directory(path, comm)
-
-
-@contextlib.contextmanager
-def one_line_errors(
-    parser, comm=MPI.COMM_WORLD, grace: float = ERROR_AGREEMENT_SECONDS, flags=None
-):
-    """Report an error of the block as one line and exit (see the module docstring).
-
-    Args:
-        parser: The demo's parser (its ``prog`` starts the line), or the program name.
-        flags: The parser whose flags name the parameters (default: ``parser``); a
-            :class:`~nitsche_dolfinx.parameters.ParameterError` is reported under the
-            flag that set the value.
-        comm: The communicator of the run.
-        grace: Seconds a failing rank waits for the others to fail too before it
-            decides that the error is its own and aborts the job.
-    """
-    prog = parser if isinstance(parser, str) else parser.prog
-    if flags is None and not isinstance(parser, str):
-        flags = parser
-    failures = FailureChannel(comm)
-    try:
-        yield
-    except SystemExit:
-        raise
-    except BaseException as error:  # noqa: BLE001 - every error ends the run, one way or another
-        if isinstance(error, ParameterError) and flags is not None:
-            error = _under_its_flag(error, flags)
-        status, message = _status_and_message(error)
-        if failures.every_rank_failed(grace):
-            if comm.rank == 0:
-                print(f"{prog}: error: {message}", file=sys.stderr, flush=True)
-            sys.exit(status)
-        print(
-            f"{prog}: error on rank {comm.rank} of {comm.size} (aborting all ranks): {message}",
-            file=sys.stderr,
-            flush=True,
-        )
-        comm.Abort(status)
-    failures.free()
-
-
-def _under_its_flag(error: ParameterError, parser: argparse.ArgumentParser) -> ParameterError:
-    """The error named by the flag that set the parameter, if the parser has one."""
-    dest = _DESTINATIONS.get(error.name, error.name)
-    for action in parser._actions:
-        if action.dest == dest and action.option_strings:
-            value = error.value
-            shown = f"{value:g}" if isinstance(value, float) else str(value)
-            return error.named(f"{action.option_strings[0]} {shown}")
-    return error
-
-
-#: Errors in the user's input or files: one line, exit status 2.
-_INPUT_ERRORS = (ValueError, PETSc.Error)
-
-
-def _status_and_message(error: BaseException) -> tuple[int, str]:
-    """The exit status and the line (with a traceback for an unexpected error) for ``error``."""
-    if isinstance(error, RunInterrupted):
-        return error.exit_status, _one_line(error) + " (continue with --restart)"
-    if isinstance(error, KeyboardInterrupt):
-        return 130, "interrupted (KeyboardInterrupt)"
-    if isinstance(error, SolverError):
-        saved = getattr(error, "checkpoint", None)
-        extra = (
-            f"; {saved} (continue with --restart; a smaller dt or gamma0 is allowed there)"
-            if saved is not None
-            else ""
-        )
-        return 1, _one_line(error) + extra
-    if isinstance(error, _INPUT_ERRORS):
-        return 2, _one_line(error)
-    if isinstance(error, OSError):
-        return 1, _one_line(error)
-    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    return 1, f"unexpected {type(error).__name__}: {_one_line(error)}\n{text.rstrip()}"
-
-
-def _one_line(error: BaseException) -> str:
-    """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
-    if isinstance(error, PETSc.Error):
-        lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]
-        return f"PETSc {lines[0]}: {lines[-1]}" if len(lines) > 1 else f"PETSc {lines[0]}"
-    return " ".join(str(error).split()) or type(error).__name__

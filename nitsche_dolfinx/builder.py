@@ -1,23 +1,45 @@
 """The simulation a validated TOML configuration describes (:mod:`nitsche_dolfinx.config`).
 
 The values are checked first, by the parameter objects of
-:mod:`nitsche_dolfinx.parameters` (and the facet selectors by their classes); then the
-mesh is made or read, its facets tagged by the ``[[facet_tag]]`` selectors, and the
-tags, dimensions and shapes are checked against it; then the terms are added in the
-order of the demos (contact pairs, obstacles, Dirichlet conditions, loads, initial
-values) and the probes. Every error is a :class:`~nitsche_dolfinx.config.ConfigError`
-naming the ``[table] key`` it came from.
+:mod:`nitsche_dolfinx.parameters`, the material, the schemes and the obstacles' classes
+(and the facet selectors by theirs); then the mesh is made or read, its facets tagged by
+the ``[[facet_tag]]`` selectors, and the tags, dimensions and shapes are checked against
+it; then the terms are added in the order of the demos (contact pairs, obstacles,
+Dirichlet conditions, loads, initial values) and the probes. The keywords of
+:class:`~nitsche_dolfinx.model.ContactProblem`, :class:`~nitsche_dolfinx.simulation.
+Simulation` and the rest come from their TOML keys through
+:data:`~nitsche_dolfinx.parameter_table.PARAMETERS`. Every error is a
+:class:`~nitsche_dolfinx.config.ConfigError` naming the ``[table] key`` it came from.
 """
 
 from __future__ import annotations
 
+from dataclasses import fields
+from typing import NamedTuple
+
 import numpy as np
+import ufl
+from mpi4py import MPI
 
 from .config import bad, output_parameters, reported_at, setting
+from .diagnostics import BoundaryAverage, PointValue
+from .material import Material
+from .mesh_generators import generate_mesh
+from .meshes import InBox, NormalWithin, OnPlane, load_mesh, tag_facets
+from .model import ContactProblem
+from .obstacles import OBSTACLES
+from .parameter_table import PARAMETERS
+from .parameters import Discretisation, NitscheParameters, TimeStepping
 from .schema import FACET_SELECTORS, SCHEMA
-from .valueforms import field_value, time_value
+from .schemes import TimeScheme, make_scheme
+from .simulation import Simulation
+from .twobody import body_velocities
+from .valueforms import check_field_value, check_time_value, field_value, time_value
 
 __all__ = ["build_simulation"]
+
+#: The classes of the facet selectors of [[facet_tag]] (their keys: schema.FACET_SELECTORS).
+SELECTOR_CLASSES = {"on_plane": OnPlane, "normal_within": NormalWithin, "in_box": InBox}
 
 
 def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
@@ -33,106 +55,99 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     Raises:
         ConfigError: A value is out of range or does not fit the mesh.
     """
-    from mpi4py import MPI
-
-    from .model import ContactProblem
-    from .parameters import Discretisation, NitscheParameters, TimeStepping
-    from .schemes import make_scheme
-    from .simulation import Simulation
-
     comm = comm or MPI.COMM_WORLD
-
-    def get(table: str, key: str):
-        return setting(config, table, key)
-
     # the values first, the mesh last: a bad value stops the run before any meshing
-    material = _material(config, source)
-    with reported_at("[scheme]", source):
-        scheme = make_scheme(*(get("scheme", key) for key in ("name", "theta", "beta", "gamma")))
-        time_stepping = TimeStepping(
-            get("scheme", "dt"), get("scheme", "t_end"), get("scheme", "max_step_cuts")
-        )
-    with reported_at("[nitsche]", source):
-        contact = NitscheParameters(
-            *(get("nitsche", key) for key in ("gamma0", "theta", "friction", "method")),
-            gamma0_scaling=get("nitsche", "gamma0_scaling"),
-        )
-    with reported_at("[mesh]", source):
-        discretisation = Discretisation(
-            *(get("mesh", key) for key in ("degree", "mass", "quadrature_degree"))
-        )
-    obstacles = _obstacles(config, source)
-    selectors = _selectors(config, source)
-    output_parameters(config, source)
+    checked = _checked_values(config, source)
     mesh, cell_tags, facet_tags = _mesh(config, comm, source)
     _check_dimensions(config, mesh.geometry.dim, source)
-    facet_tags = _tag_facets(mesh, facet_tags, selectors, config, source)
+    facet_tags = _tag_facets(mesh, facet_tags, checked.selectors, config, source)
     with reported_at("[nitsche]", source):
         problem = ContactProblem(
-            mesh, facet_tags, material, **vars(contact), **vars(discretisation)
+            mesh, facet_tags, checked.material, **_keywords(config, "ContactProblem")
         )
-    contacts = _add_terms(problem, config, obstacles, cell_tags, source)
-    with reported_at("[solver]", source), reported_at("[scheme]", source):
+    contacts = _add_terms(problem, config, checked.obstacles, cell_tags, source)
+    with reported_at("[solver]", source):
         simulation = Simulation(
             problem,
-            scheme,
-            time_stepping.dt,
-            time_stepping.t_end,
+            **{**_keywords(config, "Simulation"), "scheme": checked.scheme},
             petsc_options=config.get("petsc"),
             progress=progress,
-            reuse_jacobian=get("solver", "reuse_jacobian"),
-            preconditioner_lag=get("solver", "preconditioner_lag"),
-            guard_friction=get("solver", "guard_friction"),
-            linear_solver=get("solver", "linear_solver"),
-            max_step_cuts=time_stepping.max_step_cuts,
         )
     _add_probes(simulation, config, contacts, cell_tags, source)
     _check_columns(simulation, config, source)
     return simulation
 
 
-def _material(config: dict, source: str):
-    from .material import Material
+def _keywords(config: dict, owner: str) -> dict:
+    """The keywords of ``owner`` (``"ContactProblem"``, ``"Simulation"``, ... : a key of
+    :data:`~nitsche_dolfinx.parameter_table.OWNERS`) that TOML keys set, each as given or
+    at its TOML default."""
+    return {
+        parameter.name: setting(config, parameter.table, parameter.toml_key)
+        for parameter in PARAMETERS
+        if parameter.owner == owner and parameter.toml_key is not None
+    }
 
-    m = config["material"]
-    rho = setting(config, "material", "rho")
+
+class _Checked(NamedTuple):
+    """What the configuration makes before the mesh (every value checked)."""
+
+    material: Material
+    scheme: TimeScheme
+    obstacles: list
+    selectors: list[list]
+
+
+def _checked_values(config: dict, source: str) -> _Checked:
+    """The material, the scheme, the obstacles and the facet selectors, and the checks of
+    every run parameter by its object (gamma0 and Theta against E): all before the mesh."""
+    material = _material(config, source)
+    with reported_at("[scheme]", source):
+        scheme = make_scheme(setting(config, "scheme", "name"), **_keywords(config, "make_scheme"))
+    problem, run = _keywords(config, "ContactProblem"), _keywords(config, "Simulation")
+    with reported_at("[scheme]", source):
+        TimeStepping(run["dt"], run["t_end"], run["max_step_cuts"])
+    with reported_at("[nitsche]", source):
+        nitsche = NitscheParameters(**{f.name: problem[f.name] for f in fields(NitscheParameters)})
+        nitsche.check_scale(material.E)
+    with reported_at("[mesh]", source):
+        Discretisation(**{f.name: problem[f.name] for f in fields(Discretisation)})
+    obstacles = _obstacles(config, source)
+    selectors = _selectors(config, source)
+    output_parameters(config, source)
+    return _Checked(material, scheme, obstacles, selectors)
+
+
+def _material(config: dict, source: str) -> Material:
+    values = config["material"]
     with reported_at("[material]", source):
-        if "E" in m:
-            return Material(E=m["E"], nu=m["nu"], rho=rho)
-        return Material.from_lame(m["lmbda"], m["mu"], rho=rho)
+        if "E" in values:
+            return Material(**_keywords(config, "Material"))
+        return Material.from_lame(**_keywords(config, "Material.from_lame"),
+                                  rho=setting(config, "material", "rho"))  # fmt: skip
 
 
 def _obstacles(config: dict, source: str) -> list:
-    """The obstacles of the [[obstacle]] tables (checked without the mesh)."""
-    from .obstacles import CylinderObstacle, PlaneObstacle, SphereObstacle
-
+    """The obstacles of the [[obstacle]] tables, made by their classes (which check their
+    values) with the keys of their type."""
     obstacles = []
     for index, table in enumerate(config.get("obstacle", [])):
-        kind, side = (setting(config, "obstacle", key, table) for key in ("type", "side"))
+        kind = OBSTACLES[setting(config, "obstacle", "type", table)]
+        given = {key: table.get(key, spec.default) for key, spec in kind.keys.items()}
         with reported_at(f"[[obstacle]] #{index + 1}", source):
-            if kind == "plane":
-                obstacle = PlaneObstacle(table["point"], table["normal"])
-            elif kind == "cylinder":
-                obstacle = CylinderObstacle(table["point"], table["axis"], table["radius"], side)
-            else:
-                obstacle = SphereObstacle(table["center"], table["radius"], side)
-        obstacles.append(obstacle)
+            obstacles.append(kind.make(**given))
     return obstacles
 
 
 def _selectors(config: dict, source: str) -> list[list]:
     """The selectors of each [[facet_tag]] table (checked without the mesh)."""
-    from . import meshes
-
-    classes = {"on_plane": meshes.OnPlane, "normal_within": meshes.NormalWithin,
-               "in_box": meshes.InBox}  # fmt: skip
     selectors = []
     for index, table in enumerate(config.get("facet_tag", [])):
         selectors.append([])
         for name in FACET_SELECTORS:
             if name in table:
                 try:
-                    selectors[-1].append(classes[name](**table[name]))
+                    selectors[-1].append(SELECTOR_CLASSES[name](**table[name]))
                 except ValueError as error:
                     where = f"[[facet_tag]] #{index + 1}"
                     raise bad(source, where, name, table[name], str(error)) from None
@@ -142,9 +157,6 @@ def _selectors(config: dict, source: str) -> list[list]:
 def _mesh(config: dict, comm, source: str):
     """``(mesh, cell_tags or None, facet_tags or None)`` of [mesh]: a mesh file may lack
     facet tags when [[facet_tag]] tables tag its facets."""
-    from .mesh_generators import generate_mesh
-    from .meshes import load_mesh
-
     table = config["mesh"]
     with reported_at("[mesh]", source):
         if "generator" in table:
@@ -157,8 +169,6 @@ def _mesh(config: dict, comm, source: str):
 
 def _tag_facets(mesh, facet_tags, selectors: list[list], config: dict, source: str):
     """The facet tags of the mesh with those of the [[facet_tag]] tables, in their order."""
-    from .meshes import tag_facets
-
     for index, (table, chosen_by) in enumerate(zip(config.get("facet_tag", []), selectors)):
         try:
             facet_tags = tag_facets(mesh, {table["tag"]: chosen_by}, facet_tags)
@@ -173,8 +183,6 @@ def _tag_facets(mesh, facet_tags, selectors: list[list], config: dict, source: s
 
 def _components(value) -> int | None:
     """The number of components of a checked value (None: a scalar, any dimension)."""
-    from .valueforms import check_field_value, check_time_value
-
     if isinstance(value, dict) and "profile" not in value:
         return check_field_value(value)
     return check_time_value(value)
@@ -207,38 +215,37 @@ def _check_component(item: dict, gdim: int, where: str, source: str) -> None:
         )  # fmt: skip
 
 
-#: The types of obstacle that exist in each dimension.
-_OBSTACLE_DIMENSIONS = {"plane": (1, 2, 3), "circle": (2,), "sphere": (3,), "cylinder": (3,)}
-
-
 def _check_dimensions(config: dict, gdim: int, source: str) -> None:
     """Every vector of the configuration has the mesh's dimension (one component of a
     Dirichlet value has one), and every obstacle type exists in it."""
     for name, spec in SCHEMA.items():
-        # the obstacles and pairs check their points and directions themselves
-        if name not in config or spec.free or name in ("mesh", "obstacle", "contact_pair"):
+        # a contact pair checks its direction itself, the generators their centres
+        if name not in config or spec.free or name in ("mesh", "contact_pair"):
             continue
         items = config[name] if spec.array else [config[name]]
         for index, item in enumerate(items):
             where = f"[[{name}]] #{index + 1}" if spec.array else f"[{name}]"
             if name == "dirichlet" and "component" in item:
                 _check_component(item, gdim, where, source)
-                continue
-            if name == "facet_tag":
+            elif name == "facet_tag":
                 for selector in FACET_SELECTORS:
                     if selector in item:
                         _check_vectors(item[selector], FACET_SELECTORS[selector], gdim,
                                        f"{where} {selector}", source)  # fmt: skip
-                continue
-            _check_vectors(item, spec, gdim, where, source)
-    for index, table in enumerate(config.get("obstacle", [])):
-        kind = setting(config, "obstacle", "type", table)
-        if gdim not in _OBSTACLE_DIMENSIONS[kind]:
-            dims = " or ".join(f"{d}D" for d in _OBSTACLE_DIMENSIONS[kind])
-            raise bad(
-                source, f"[[obstacle]] #{index + 1}", "type", kind,
-                f"a {kind} obstacle is {dims}, the mesh is {gdim}D",
-            )  # fmt: skip
+            elif name == "obstacle":
+                _check_obstacle_dimension(item, gdim, where, source)
+            else:
+                _check_vectors(item, spec, gdim, where, source)
+
+
+def _check_obstacle_dimension(item: dict, gdim: int, where: str, source: str) -> None:
+    """An obstacle type that exists in the mesh's dimension, with vectors of it."""
+    name = setting({}, "obstacle", "type", item)
+    dimensions = OBSTACLES[name].dimensions
+    if gdim not in dimensions:
+        dims = " or ".join(f"{d}D" for d in dimensions)
+        raise bad(source, where, "type", name, f"a {name} obstacle is {dims}, the mesh is {gdim}D")
+    _check_vectors(item, SCHEMA["obstacle"], gdim, where, source)
 
 
 def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -> list:
@@ -278,8 +285,6 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
 
 def _cells(cell_tags, tag: int, where: str, key: str, source: str, comm) -> None:
     """Refuse a cell tag that the mesh does not have."""
-    from mpi4py import MPI
-
     if cell_tags is None:
         raise bad(source, where, key, tag, "the mesh has no cell tags (the two-body meshes do)")
     if comm.allreduce(len(cell_tags.find(tag)), op=MPI.SUM) == 0:
@@ -288,8 +293,6 @@ def _cells(cell_tags, tag: int, where: str, key: str, source: str, comm) -> None
 
 
 def _body_velocities(problem, bodies: list, cell_tags, source: str):
-    from .twobody import body_velocities
-
     for index, body in enumerate(bodies):
         _cells(cell_tags, body["tag"], f"[[body]] #{index + 1}", "tag", source, problem.mesh.comm)
     velocities = {body["tag"]: np.asarray(body["velocity"], dtype=float) for body in bodies}
@@ -299,10 +302,6 @@ def _body_velocities(problem, bodies: list, cell_tags, source: str):
 def _add_probes(simulation, config: dict, contacts: list, cell_tags, source: str) -> None:
     """The [[probe]] columns: u or v at a point, means of u, v or lambda_h over facets,
     cells or the mesh."""
-    import ufl
-
-    from .diagnostics import BoundaryAverage, PointValue
-
     problem = simulation.problem
     for index, probe in enumerate(config.get("probe", [])):
         where = f"[[probe]] #{index + 1}"

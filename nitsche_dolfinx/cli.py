@@ -1,12 +1,14 @@
-"""The command line: ``nitsche-dolfinx run CONFIG.toml`` (also under ``mpirun``), and
+"""The command line: ``nitsche-dolfinx run CONFIG.toml`` (also under ``mpirun``),
 ``nitsche-dolfinx schema`` (or ``--help-config``), which prints every key of a
-configuration with its kind, default and meaning.
+configuration with its kind, default and meaning, and ``nitsche-dolfinx parameters``,
+which prints the run parameters under their API, TOML and flag names (the markdown of
+``docs/parameters.md``).
 
 A bad configuration stops the run before anything is computed, with one line
 on rank 0 that names the problem and a non-zero exit status, never a traceback.
 A solver failure, SIGINT or SIGTERM stops it after the last complete step with
 its state saved in ``OUT/checkpoint``; ``--restart`` continues from there. The
-exit statuses are those of :mod:`nitsche_dolfinx.arguments`: 2 for a bad
+exit statuses are those of :mod:`nitsche_dolfinx.errors`: 2 for a bad
 configuration, 1 for a failed run, 130/143 for an interrupted one.
 """
 
@@ -16,13 +18,26 @@ import argparse
 import os
 import sys
 
+from mpi4py import MPI
+
+from .arguments import (
+    add_parameter_argument,
+    add_version_argument,
+    check_output_folder,
+    petsc_option,
+)
+from .builder import build_simulation
+from .config import history_columns, load_config, output_parameters
+from .errors import one_line_errors
+from .parameter_table import markdown
+from .parameters import OutputParameters
+from .schema import describe
+
 __all__ = ["main"]
 
 
 def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
     """The command's parser and that of ``run`` (whose flags name parameters)."""
-    from .arguments import add_version_argument, petsc_option
-
     parser = argparse.ArgumentParser(
         prog="nitsche-dolfinx",
         description="Dynamic contact in elastodynamics by Nitsche's method (FEniCSx).",
@@ -36,6 +51,11 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
     commands = parser.add_subparsers(dest="command")
     run = commands.add_parser("run", help="run the simulation a TOML file describes")
     commands.add_parser("schema", help="print every key of a TOML configuration and exit")
+    commands.add_parser(
+        "parameters",
+        help="print the run parameters under their API, TOML and flag names (markdown: "
+        "docs/parameters.md) and exit",
+    )
     add_version_argument(run)
     run.add_argument("config", help="the TOML configuration (keys: nitsche-dolfinx schema)")
     run.add_argument("--out", help="output folder (overrides [output] dir)")
@@ -43,21 +63,16 @@ def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:
     run.add_argument(
         "--check", action="store_true", help="validate the configuration and the mesh, then stop"
     )
-    run.add_argument(
-        "--output-every",
-        type=int,
-        default=None,
-        metavar="N",
+    # None: the configuration's value
+    add_parameter_argument(
+        run, "--output-every", None, metavar="N",
         help="write the fields every N steps (overrides [output] every; 0: never)",
-    )
-    run.add_argument(
-        "--checkpoint-every",
-        type=int,
-        default=None,
-        metavar="K",
+    )  # fmt: skip
+    add_parameter_argument(
+        run, "--checkpoint-every", None, metavar="K",
         help="save the state in OUT/checkpoint every K steps and at the end "
         "(overrides [output] checkpoint_every; 0: only when the run stops early)",
-    )
+    )  # fmt: skip
     run.add_argument(
         "--restart",
         action="store_true",
@@ -75,22 +90,17 @@ def main(argv: list[str] | None = None) -> int:
     parser, run_parser = _parser()
     args = parser.parse_args(argv)
     if args.help_config or args.command == "schema":
-        from .schema import describe
-
         print(describe())
         return 0
+    if args.command == "parameters":
+        print(markdown(), end="")
+        return 0
     if args.command is None:
-        parser.error("choose a command: run or schema")
+        parser.error("choose a command: run, schema or parameters")
     return _run(args, run_parser)
 
 
 def _run(args: argparse.Namespace, run_parser: argparse.ArgumentParser) -> int:
-    from mpi4py import MPI
-
-    from .arguments import check_output_folder, one_line_errors
-    from .config import build_simulation, history_columns, load_config, output_parameters
-    from .parameters import OutputParameters
-
     comm = MPI.COMM_WORLD
     with one_line_errors("nitsche-dolfinx", comm, flags=run_parser):
         config = load_config(args.config)

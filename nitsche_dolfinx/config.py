@@ -1,4 +1,4 @@
-"""Run descriptions in TOML: reading, checking, and the simulation they describe.
+"""Run descriptions in TOML: reading and checking (the simulation: :mod:`~nitsche_dolfinx.builder`).
 
 A configuration names the mesh (a file, or one of the library's generated meshes), the
 material, the contact terms, the time scheme, the obstacles and contact pairs, the
@@ -37,14 +37,16 @@ loads, the initial values, the history columns and the output::
     every = 10
 
 Every key, its kind, its default and its meaning: :data:`nitsche_dolfinx.schema.SCHEMA`,
-printed by ``nitsche-dolfinx schema``. No value is ever evaluated as code: values in time
-and in space are small tables (:mod:`nitsche_dolfinx.valueforms`).
+printed by ``nitsche-dolfinx schema``; the run parameters under their API, TOML and flag
+names: ``docs/parameters.md``. No value is ever evaluated as code: values in time and in
+space are small tables (:mod:`nitsche_dolfinx.valueforms`).
 
-Everything is checked before anything is computed: :func:`validate` checks the kinds,
-the forms and the keys each choice takes; :func:`build_simulation` checks the values
-(material, scheme, time step, Nitsche parameter, obstacles) before it makes or reads
-the mesh, then the tags and dimensions against the mesh. A bad value raises
-:class:`ConfigError` naming it as ``[table] key = value``.
+Everything is checked before anything is computed: :func:`load_config` reads the file
+and :func:`validate` checks the kinds, the forms, the magnitudes and the keys each choice
+takes; :func:`nitsche_dolfinx.builder.build_simulation` then checks the values with the
+library's parameter objects before it makes or reads the mesh, and the tags and
+dimensions against the mesh. A bad value raises :class:`ConfigError` naming it as
+``file.toml: [table] key = value: ...`` (:func:`bad`, :func:`reported_at`).
 """
 
 from __future__ import annotations
@@ -53,17 +55,32 @@ import contextlib
 import math
 import os
 
-from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
-from .schema import FACET_SELECTORS, KINDS, OBSTACLE_TYPES, PROBE_QUANTITIES, REQUIRED, SCHEMA
+from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
+from .keys import KINDS
+from .mesh_generators import GENERATOR_KEYS, check_generator
+from .obstacles import OBSTACLES
+from .parameter_table import by_name
+from .parameters import OutputParameters, ParameterError, TimeStepping
+from .schema import FACET_SELECTORS, PROBE_QUANTITIES, SCHEMA
+from .schemes import SCHEMES
 from .valueforms import check_field_value, check_time_value
+
+try:  # an optional dependency: Python >= 3.11 has tomllib, before it the tomli package
+    import tomllib
+except ImportError:
+    try:
+        import tomli as tomllib
+    except ImportError:
+        tomllib = None
 
 __all__ = [
     "ConfigError",
-    "SCHEMA",
-    "build_simulation",
+    "bad",
     "history_columns",
     "load_config",
     "output_parameters",
+    "reported_at",
+    "setting",
     "validate",
 ]
 
@@ -86,16 +103,7 @@ def load_config(path: str) -> dict:
         ConfigError: The file is missing, is not TOML, or is invalid.
     """
     path = str(path)
-    if os.path.isdir(path):
-        raise ConfigError(f"{path}: the configuration is a folder, not a TOML file")
-    if not os.path.isfile(path):
-        raise ConfigError(f"{path}: configuration file does not exist")
-    toml = _toml_module()
-    try:
-        with open(path, "rb") as f:
-            config = toml.load(f)
-    except toml.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    config = _read(path)
     validate(config, path)
     base = os.path.dirname(os.path.abspath(path))
     output = config.setdefault("output", {})
@@ -111,32 +119,42 @@ def load_config(path: str) -> dict:
     return config
 
 
-def _toml_module():
+def _read(path: str) -> dict:
+    """The tables of the TOML file ``path``; every way it can fail is named with the file."""
+    if os.path.isdir(path):
+        raise ConfigError(f"{path}: the configuration is a folder, not a TOML file")
+    if not os.path.exists(path):
+        raise ConfigError(f"{path}: configuration file does not exist")
+    if not os.path.isfile(path):
+        raise ConfigError(f"{path}: the configuration is not a regular file (a device?)")
+    if tomllib is None:
+        raise ConfigError(f"{path}: reading TOML needs Python >= 3.11 or the tomli package")
     try:
-        import tomllib  # Python >= 3.11
-    except ImportError:
-        try:
-            import tomli as tomllib
-        except ImportError:
-            raise ConfigError("reading TOML needs Python >= 3.11 or the tomli package") from None
-    return tomllib
-
-
-def _shown(value) -> str:
-    return repr(value)
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    except UnicodeDecodeError as error:  # TOML is UTF-8 text
+        byte = error.object[error.start]
+        raise ConfigError(
+            f"{path}: not a TOML file: not UTF-8 text (byte 0x{byte:02x} at offset "
+            f"{error.start}; a binary file?)"
+        ) from None
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot be read: {error.strerror}") from None
 
 
 def setting(config: dict, table: str, key: str, item: dict | None = None):
     """``[table] key`` of ``config`` (of ``item``, one of the tables ``[[table]]``), or its
-    default in :data:`SCHEMA` (None: not set)."""
-    default = SCHEMA[table].keys[key].default
+    default in :data:`~nitsche_dolfinx.schema.SCHEMA` (None: not set)."""
+    spec = SCHEMA[table].keys[key]
     values = item if item is not None else config.get(table, {})
-    return values.get(key, None if default is REQUIRED else default)
+    return values.get(key, None if spec.required else spec.default)
 
 
 def bad(source: str, where: str, key: str, value, requirement: str) -> ConfigError:
     """The error of ``[table] key = value``: ``requirement``."""
-    return ConfigError(f"{source}: {where} {key} = {_shown(value)}: {requirement}")
+    return ConfigError(f"{source}: {where} {key} = {value!r}: {requirement}")
 
 
 # -- the checks before anything is read or computed ------------------------------------
@@ -173,11 +191,6 @@ def validate(config: dict, source: str = "config") -> None:
     for index, obstacle in enumerate(config.get("obstacle", [])):
         _check_obstacle(obstacle, f"[[obstacle]] #{index + 1}", source)
     _check_values(config, source)
-    for index, table in enumerate(config.get("dirichlet", [])):
-        component = table.get("component", 0)
-        if not 0 <= component <= 2:
-            raise bad(source, f"[[dirichlet]] #{index + 1}", "component", component,
-                      "must be 0 (x), 1 (y) or 2 (z)")  # fmt: skip
     _check_probes(config.get("probe", []), source)
     if config.get("body") and "velocity" in config.get("initial", {}):
         raise ConfigError(
@@ -188,28 +201,20 @@ def validate(config: dict, source: str = "config") -> None:
         raise bad(source, "[output]", "columns", columns, "must be distinct names, at least one")
 
 
-#: Keys whose choices the parameter objects check, in their own words, before the mesh.
-_OWN_CHOICES = ("name", "method", "gamma0_scaling", "mass")
-
-
 def _check_table(table, spec, where: str) -> None:
+    """The keys of ``table`` are those of ``spec``, each of its kind and range, the
+    required ones given."""
     if not isinstance(table, dict):
         raise ConfigError(f"{where} must be a table")
     for key, value in table.items():
         if key not in spec.keys:
             raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(spec.keys)})")
         key_spec = spec.keys[key]
-        name, check = KINDS[key_spec.kind]
-        if not check(value):
-            raise ConfigError(f"{where} {key} must be {name}, got {value!r}")
-        if key_spec.kind in ("number", "vector"):
-            numbers = value if isinstance(value, list) else [value]
-            if not all(math.isfinite(x) for x in numbers):
-                raise ConfigError(f"{where} {key} = {_shown(value)}: must be finite")
-        if key_spec.choices and value not in key_spec.choices and key not in _OWN_CHOICES:
-            raise ConfigError(
-                f"{where} {key} = {value!r}: unknown; choose one of {', '.join(key_spec.choices)}"
-            )
+        if not key_spec.fits(value):
+            raise ConfigError(f"{where} {key} must be {KINDS[key_spec.kind][0]}, got {value!r}")
+        problem = key_spec.problem(value)
+        if problem is not None:
+            raise ConfigError(f"{where} {key} = {value!r}: {problem}")
     for key, key_spec in spec.keys.items():
         if key_spec.required and key not in table:
             raise ConfigError(f"{where} missing required key {key!r}")
@@ -240,13 +245,12 @@ def _check_material(material: dict, source: str) -> None:
 
 def _check_scheme_keys(scheme: dict, source: str) -> None:
     """[scheme] theta, beta, gamma only for the scheme that takes them."""
-    from .schemes import SCHEMES
-
     name = setting({"scheme": scheme}, "scheme", "name")
     if name not in SCHEMES:
         return  # named by the scheme's own check, with the table's label
-    for key in ("theta", "beta", "gamma"):
-        if key in scheme and key not in SCHEMES[name].parameters:
+    others = {key for cls in SCHEMES.values() for key in cls.parameters}
+    for key in sorted(others & scheme.keys(), key=list(scheme).index):
+        if key not in SCHEMES[name].parameters:
             raise ConfigError(
                 f"{source}: [scheme] {key} = {scheme[key]!r} is not a parameter of the "
                 f"{name!r} scheme (it takes {', '.join(SCHEMES[name].parameters) or 'none'})"
@@ -265,49 +269,29 @@ def _check_mesh(mesh: dict, source: str) -> None:
                 "meshes, not of a mesh file"
             )
         return
-    name = mesh["generator"]
-    generator = MESH_GENERATORS[name]
     if "gdim" in mesh:
         raise bad(source, "[mesh]", "gdim", mesh["gdim"], "is a key of mesh files")
-    for key in GENERATOR_KEYS:
-        if key not in mesh:
-            continue
-        if key not in generator.keys:
-            raise bad(
-                source, "[mesh]", key, mesh[key],
-                f"not a key of the {name!r} mesh (it takes {', '.join(generator.keys)})",
-            )  # fmt: skip
-        _, _, check, requirement = GENERATOR_KEYS[key]
-        if not check(mesh[key]):
-            raise bad(source, "[mesh]", key, mesh[key], f"must be {requirement}")
-    center = mesh.get("center")
-    if center is not None:
-        dimension = len(generator.keys["center"])
-        if not isinstance(center, list) or len(center) != dimension:
-            raise bad(source, "[mesh]", "center", center, f"must have {dimension} coordinates")
+    with reported_at("[mesh]", source):
+        check_generator(mesh["generator"], mesh)
 
 
 def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
+    """The keys of the obstacle's type (:data:`~nitsche_dolfinx.obstacles.OBSTACLES`)."""
     kind = setting({}, "obstacle", "type", obstacle)
-    keys, _ = OBSTACLE_TYPES[kind]
+    keys = OBSTACLES[kind].keys
     for key in obstacle:
         if key not in ("type", "tag", *keys):
             raise bad(
                 source, where, key, obstacle[key],
                 f"not a key of a {kind} obstacle (it takes {', '.join(keys)})",
             )  # fmt: skip
-    for key in keys:
-        if key != "side" and key not in obstacle:
+    for key, spec in keys.items():
+        if spec.required and key not in obstacle:
             raise ConfigError(f"{source}: {where} missing required key {key!r} (type {kind!r})")
-    if "radius" in obstacle and not obstacle["radius"] > 0:
-        raise bad(source, where, "radius", obstacle["radius"], "must be positive")
 
 
 def _check_facet_tag(table: dict, where: str, source: str) -> None:
-    """A tag >= 1 (a 32-bit integer) and at least one selector, each with the keys of its
-    kind."""
-    if not 1 <= table["tag"] < 2**31:
-        raise bad(source, where, "tag", table["tag"], "must be from 1 to 2^31 - 1")
+    """At least one selector, each with the keys of its kind."""
     selectors = [name for name in FACET_SELECTORS if name in table]
     if not selectors:
         raise ConfigError(
@@ -316,9 +300,6 @@ def _check_facet_tag(table: dict, where: str, source: str) -> None:
         )
     for name in selectors:
         _check_table(table[name], FACET_SELECTORS[name], f"{source}: {where} {name}")
-        tolerance = table[name].get("tolerance", 0.0)
-        if tolerance < 0:
-            raise bad(source, f"{where} {name}", "tolerance", tolerance, "must be >= 0")
 
 
 #: The values in time and in space: (table, key, checker).
@@ -368,46 +349,24 @@ def _check_probes(probes: list, source: str) -> None:
 
 # -- the checks of values, named where they came from ----------------------------------
 
-#: Where each parameter of :mod:`nitsche_dolfinx.parameters` is set in a configuration.
-_KEYS = {
-    "gamma0": "[nitsche] gamma0",
-    "gamma0_scaling": "[nitsche] gamma0_scaling",
-    "nitsche_theta": "[nitsche] theta",
-    "friction": "[nitsche] friction",
-    "method": "[nitsche] method",
-    "scheme": "[scheme] name",
-    "dt": "[scheme] dt",
-    "t_end": "[scheme] t_end",
-    "max_step_cuts": "[scheme] max_step_cuts",
-    "theta": "[scheme] theta",
-    "beta": "[scheme] beta",
-    "gamma": "[scheme] gamma",
-    "degree": "[mesh] degree",
-    "mass": "[mesh] mass",
-    "quadrature_degree": "[mesh] quadrature_degree",
-    "linear_solver": "[solver] linear_solver",
-    "output_every": "[output] every",
-    "checkpoint_every": "[output] checkpoint_every",
-    "initial displacement": "[initial] displacement",
-    "initial velocity": "[initial] velocity",
-    "initial_displacement": "[initial] displacement",
-}
-
 
 @contextlib.contextmanager
 def reported_at(where: str, source: str):
-    """Turn a ValueError of the block into a :class:`ConfigError` naming the table (and,
-    for a :class:`~nitsche_dolfinx.parameters.ParameterError`, the key and value)."""
-    from .parameters import ParameterError
-
+    """Turn a ValueError of the block into a :class:`ConfigError` naming the table ``where``
+    (and, for a :class:`~nitsche_dolfinx.parameters.ParameterError`, the key and value: a
+    run parameter's TOML key from :mod:`~nitsche_dolfinx.parameter_table`, any other name
+    as a key of ``where``)."""
     try:
         yield
     except ConfigError:
         raise
     except ParameterError as error:
-        key = _KEYS.get(error.name, f"{where} {error.name}")
+        parameter = by_name(error.name)
+        key = parameter.toml if parameter is not None and parameter.toml else where
         if error.explicit:  # the error's own words, after its table
             raise ConfigError(f"{source}: {key.split(' ')[0]} {error}") from None
+        if key == where:
+            key = f"{where} {error.name}"
         raise ConfigError(f"{source}: {error.named(f'{key} = {error.value!r}')}") from None
     except ValueError as error:
         raise ConfigError(f"{source}: {where} {error}") from None
@@ -417,8 +376,6 @@ def output_parameters(config: dict, source: str = "config", checkpoint_every=Non
     """The :class:`~nitsche_dolfinx.parameters.OutputParameters` of ``[output]``
     (``checkpoint_every`` given: it overrides the table's). Without ``[output] every``,
     the fields are written about :data:`DEFAULT_FIELD_OUTPUTS` times over the run."""
-    from .parameters import OutputParameters, TimeStepping
-
     output = config.get("output", {})
     if checkpoint_every is None:
         checkpoint_every = setting(config, "output", "checkpoint_every")
@@ -432,23 +389,9 @@ def output_parameters(config: dict, source: str = "config", checkpoint_every=Non
         return OutputParameters(every, checkpoint_every)
 
 
-def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
-    """The :class:`~nitsche_dolfinx.simulation.Simulation` a validated configuration
-    describes, its probes added (see :func:`nitsche_dolfinx.builder.build_simulation`).
-
-    Raises:
-        ConfigError: A value is out of range or names a tag absent from the mesh.
-    """
-    from .builder import build_simulation as build
-
-    return build(config, comm, progress, source)
-
-
 def history_columns(config: dict, simulation) -> list[str]:
     """The columns of ``history.csv``: ``[output] columns``, or those of the 2D/3D demos
     (with the energy balance under friction) and then the probes."""
-    from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
-
     columns = config.get("output", {}).get("columns")
     if columns is not None:
         return list(columns)

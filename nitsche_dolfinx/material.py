@@ -12,10 +12,11 @@ material, docs/method.md section 10).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import ufl
+
+from .parameters import require, require_positive, require_real
 
 __all__ = ["Material", "MaterialConstants", "eps", "sigma", "sigma_n", "sigma_t", "von_mises"]
 
@@ -35,20 +36,23 @@ class Material:
     rho: float = 1.0
 
     def __post_init__(self):
-        if not (math.isfinite(self.E) and self.E > 0):
-            raise ValueError(f"Young's modulus E must be positive and finite, got E={self.E!r}")
-        if not -1.0 < self.nu < 0.5:
-            raise ValueError(f"Poisson's ratio nu must lie in (-1, 1/2), got nu={self.nu!r}")
-        if not (math.isfinite(self.rho) and self.rho > 0):
-            raise ValueError(f"density rho must be positive and finite, got rho={self.rho!r}")
+        require_positive(self.E, "E", "Young's modulus")
+        require_real(self.nu, "nu", "Poisson's ratio")
+        require(-1.0 < self.nu < 0.5, "nu", self.nu, "Poisson's ratio must lie in (-1, 1/2)")
+        require_positive(self.rho, "rho", "the density")
 
     @classmethod
     def from_lame(cls, lmbda: float, mu: float, rho: float = 1.0) -> Material:
         """The material with Lame coefficients ``lmbda`` and ``mu``."""
-        if not (math.isfinite(mu) and math.isfinite(lmbda) and mu > 0):
-            raise ValueError(f"shear modulus mu must be positive, got mu={mu!r}")
-        if not lmbda + mu > 0:
-            raise ValueError(f"Lame coefficients need lambda + mu > 0, got lambda={lmbda!r}")
+        require_positive(mu, "mu", "the shear modulus")
+        require_real(lmbda, "lmbda", "the first Lame coefficient")
+        # 3 lmbda + 2 mu > 0 (a positive bulk modulus) is E > 0 and -1 < nu < 1/2
+        require(
+            3 * lmbda + 2 * mu > 0,
+            "lmbda",
+            lmbda,
+            f"the bulk modulus lmbda + 2 mu / 3 must be positive (mu={mu!r})",
+        )
         E = mu * (3 * lmbda + 2 * mu) / (lmbda + mu)
         nu = lmbda / (2 * (lmbda + mu))
         return cls(E=E, nu=nu, rho=rho)

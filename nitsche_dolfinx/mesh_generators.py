@@ -4,6 +4,9 @@ their defaults.
 
 A generator returns ``(mesh, cell_tags, facet_tags)``; ``cell_tags`` is None for the
 one-body meshes, and names the bodies of the two-body meshes (``[[body]]`` tables).
+:data:`MESH_GENERATORS` owns each generator's keys, defaults, dimension and size;
+:data:`GENERATOR_KEYS` the kind, meaning and range of every key; :func:`check_generator`
+checks a table against both before anything is made.
 """
 
 from __future__ import annotations
@@ -12,68 +15,66 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-__all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "generate_mesh"]
+from .keys import Key, is_number
+from .meshes import bar_mesh, block_mesh
+from .parameters import ParameterError
+from .shapes import MAX_CELLS, ball_mesh, disk_mesh
+from .twobody import ball_on_slab_mesh, mirrored_bodies_mesh, two_bars_mesh
+
+__all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "check_generator", "generate_mesh"]
 
 
 @dataclass(frozen=True)
 class MeshGenerator:
     """A mesh of the library: what it is, its keys with their defaults, its dimension
-    (``None``: the key ``dim`` says it) and its tags."""
+    (``None``: the key ``dim`` says it), its tags, and the number of cells its keys ask
+    for (``None``: the library's function checks its own size)."""
 
     meaning: str
     keys: dict[str, object]
     make: Callable = field(repr=False)
     gdim: int | None = None
     tags: str = ""
+    cells: Callable[..., float] | None = field(default=None, repr=False)
 
     def dimension(self, table: dict) -> int:
         """The geometric dimension of the mesh that ``table`` asks for."""
         return self.gdim if self.gdim is not None else int(table.get("dim", self.keys["dim"]))
 
+    def values(self, table: dict) -> dict:
+        """The generator's keys with the values of ``table``, the others at their defaults."""
+        return {key: table.get(key, default) for key, default in self.keys.items()}
+
 
 def _bar(comm, nx, length):
-    from .meshes import bar_mesh
-
     mesh, facet_tags = bar_mesh(nx, length, comm=comm)
     return mesh, None, facet_tags
 
 
 def _block(comm, width, height, nx, ny):
-    from .meshes import block_mesh
-
     mesh, facet_tags = block_mesh(width, height, nx, ny, comm=comm)
     return mesh, None, facet_tags
 
 
 def _disk(comm, mesh_size, order, radius, center):
-    from .shapes import disk_mesh
-
     mesh, facet_tags = disk_mesh(mesh_size, order, radius, center, comm=comm)
     return mesh, None, facet_tags
 
 
 def _ball(comm, mesh_size, order, radius, center):
-    from .shapes import ball_mesh
-
     mesh, facet_tags = ball_mesh(mesh_size, order, radius, center, comm=comm)
     return mesh, None, facet_tags
 
 
 def _two_bars(comm, nx, gap):
-    from .twobody import two_bars_mesh
-
     return two_bars_mesh(nx, gap, comm)
 
 
 def _mirrored_bodies(comm, dim, mesh_size, order, gap):
-    from .twobody import mirrored_bodies_mesh
-
     return mirrored_bodies_mesh(dim, mesh_size, order, gap, comm)
 
 
 def _ball_on_slab(comm, dim, mesh_size, radius, width, thickness, gap):
-    from .twobody import ball_on_slab_mesh
-
     return ball_on_slab_mesh(dim, mesh_size, radius, width, thickness, gap, comm)
 
 
@@ -85,6 +86,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         _bar,
         1,
         "facets 1 at x = 0, 2 at x = length",
+        lambda nx, length: nx,
     ),
     "block": MeshGenerator(
         "the rectangle (-width/2, width/2) x (0, height) in nx x ny x 2 triangles "
@@ -93,6 +95,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         _block,
         2,
         "facets 1 at y = 0",
+        lambda width, height, nx, ny: 2 * nx * ny,
     ),
     "disk": MeshGenerator(
         "the gmsh disk of the 2D impact test (shapes.disk_mesh)",
@@ -114,6 +117,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         _two_bars,
         1,
         "cells 1 right bar, 2 left bar; facets 1 at x = gap, 2 at x = 0, 3 and 4 outer ends",
+        lambda nx, gap: 2 * nx,
     ),
     "mirrored_bodies": MeshGenerator(
         "the disk (dim = 2) or ball (dim = 3) of the impact test, lowest point gap/2 above "
@@ -146,23 +150,58 @@ def _positive(value) -> bool:
     return math.isfinite(value) and value > 0
 
 
-#: Each generator key: its kind, what it is, and the range the config checks it in.
-GENERATOR_KEYS: dict[str, tuple[str, str, Callable, str]] = {
-    "nx": ("integer", "cells along x (two_bars: per bar)", lambda n: n >= 1, "at least 1"),
-    "ny": ("integer", "cells along y", lambda n: n >= 1, "at least 1"),
-    "length": ("number", "length of the bar", _positive, "positive"),
-    "width": ("number", "width of the block or the slab", _positive, "positive"),
-    "height": ("number", "height of the block", _positive, "positive"),
-    "thickness": ("number", "thickness of the slab", _positive, "positive"),
-    "mesh_size": ("number", "target edge length of the gmsh cells", _positive, "positive"),
-    "order": ("integer", "geometric order of the gmsh mesh (2: curved)", (1, 2).__contains__,
-              "1 or 2"),
-    "radius": ("number", "radius of the disk or ball", _positive, "positive"),
-    "center": ("vector", "centre of the disk or ball", lambda c: True, ""),
-    "gap": ("number", "initial gap between the bodies", lambda g: math.isfinite(g) and g >= 0,
-            ">= 0"),
-    "dim": ("integer", "2 (disks) or 3 (balls)", (2, 3).__contains__, "2 or 3"),
+def _key(kind: str, meaning: str, check: Callable, requirement: str) -> Key:
+    return Key(kind, None, meaning, shown_default="the generator's", check=check,
+               requirement=requirement)  # fmt: skip
+
+
+#: Each generator key: its kind, what it is, and its range.
+GENERATOR_KEYS: dict[str, Key] = {
+    "nx": _key("integer", "cells along x (two_bars: per bar)", lambda n: n >= 1, "at least 1"),
+    "ny": _key("integer", "cells along y", lambda n: n >= 1, "at least 1"),
+    "length": _key("number", "length of the bar", _positive, "positive"),
+    "width": _key("number", "width of the block or the slab", _positive, "positive"),
+    "height": _key("number", "height of the block", _positive, "positive"),
+    "thickness": _key("number", "thickness of the slab", _positive, "positive"),
+    "mesh_size": _key("number", "target edge length of the gmsh cells", _positive, "positive"),
+    "order": _key("integer", "geometric order of the gmsh mesh (2: curved)",
+                  (1, 2).__contains__, "1 or 2"),
+    "radius": _key("number", "radius of the disk or ball", _positive, "positive"),
+    "center": _key("vector", "centre of the disk or ball", lambda c: True, ""),
+    "gap": _key("number", "initial gap between the bodies", lambda g: g >= 0, ">= 0"),
+    "dim": _key("integer", "2 (disks) or 3 (balls)", (2, 3).__contains__, "2 or 3"),
 }  # fmt: skip
+
+
+def check_generator(name: str, table: dict) -> None:
+    """Check the keys of ``table``, each of its kind and range (:data:`GENERATOR_KEYS`,
+    checked with the table's other keys), for the generator ``name``: keys it takes, a
+    centre of the mesh's dimension, and a mesh of at most
+    :data:`~nitsche_dolfinx.shapes.MAX_CELLS` cells.
+
+    Raises:
+        ParameterError: Naming the first bad key and its value.
+    """
+    generator = MESH_GENERATORS[name]
+    for key, value in table.items():
+        if key in GENERATOR_KEYS and key not in generator.keys:
+            raise ParameterError(
+                key, value, f"not a key of the {name!r} mesh (it takes {', '.join(generator.keys)})"
+            )
+    center = table.get("center")
+    if center is not None:
+        dimension = len(generator.keys["center"])
+        if not isinstance(center, list) or len(center) != dimension:
+            raise ParameterError("center", center, f"must have {dimension} coordinates")
+    if generator.cells is not None:
+        values = generator.values(table)
+        cells = generator.cells(**values)
+        if not (is_number(cells) and cells <= MAX_CELLS):
+            given = ", ".join(f"{key} = {values[key]}" for key in generator.keys)
+            raise ParameterError(
+                name, cells, f"{given} make {cells:.2g} cells, more than {MAX_CELLS:.0e}",
+                label=f"generator = {name!r}",
+            )  # fmt: skip
 
 
 def generate_mesh(name: str, table: dict, comm):
@@ -172,6 +211,4 @@ def generate_mesh(name: str, table: dict, comm):
     Raises:
         ValueError: A value the library refuses (the size of a gmsh body, say).
     """
-    generator = MESH_GENERATORS[name]
-    values = {key: table.get(key, default) for key, default in generator.keys.items()}
-    return generator.make(comm, **values)
+    return MESH_GENERATORS[name].make(comm, **MESH_GENERATORS[name].values(table))

@@ -35,7 +35,6 @@ from .pairs import CONTACT_PAIR_VARIANTS, PairContact, pair_halves
 from .parameters import (
     Discretisation,
     NitscheParameters,
-    check_gamma0,
     require,
     require_choice,
 )
@@ -102,8 +101,8 @@ class ContactProblem:
         gamma0_scaling: str = "absolute",
     ):
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
-        check_gamma0(nitsche.gamma0, nitsche.gamma0_scaling, material.E)
-        discretisation = Discretisation(int(degree), mass, quadrature_degree)
+        nitsche.check_scale(material.E)
+        discretisation = Discretisation(degree, mass, quadrature_degree)
         compat.stable_form_signatures(mesh)  # a sweep finds its compiled forms
         self.mesh = mesh
         self.facet_tags = facet_tags

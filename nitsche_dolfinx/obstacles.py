@@ -3,19 +3,30 @@
 The obstacle normal is ``n_c = -grad d / |grad d|``: it points from the body
 into the obstacle. The initial gap is ``g(x) = d(x)`` in the reference
 configuration (docs/method.md section 1).
+
+:data:`OBSTACLES` names the obstacles a configuration can place (``[[obstacle]] type =
+NAME``), with their keys (the keyword arguments of their class) and the dimensions they
+exist in: the TOML schema, its checks, the builder and ``nitsche-dolfinx schema`` read
+them there, so that a new shape is a class and an entry of that table.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import ufl
 from dolfinx import fem
 
+from .keys import LARGEST, REQUIRED, Key, is_number
+from .parameters import require, require_positive
+
 __all__ = [
+    "OBSTACLES",
     "CylinderObstacle",
     "Obstacle",
+    "ObstacleType",
     "PlaneObstacle",
     "SignedDistanceObstacle",
     "SphereObstacle",
@@ -50,19 +61,15 @@ class PlaneObstacle(Obstacle):
     """
 
     def __init__(self, point: Sequence[float], normal: Sequence[float]):
-        self.point = np.asarray(point, dtype=float).reshape(-1)
-        if not np.all(np.isfinite(self.point)):
-            raise ValueError(f"obstacle point must be finite, got {self.point.tolist()}")
-        normal = np.asarray(normal, dtype=float).reshape(-1)
-        length = float(np.linalg.norm(normal))
-        if not np.isfinite(length) or length == 0.0:
-            raise ValueError(f"obstacle normal must have a non-zero length, got {normal.tolist()}")
-        if normal.shape != self.point.shape:
-            raise ValueError(
-                f"obstacle point {self.point.tolist()} and normal {normal.tolist()} "
-                "have different dimensions"
-            )
-        self.unit_normal = normal / length
+        self.point = _coordinates(point, "point", "the plane's point")
+        normal = _coordinates(normal, "normal", "the plane's normal")
+        require(
+            normal.shape == self.point.shape,
+            "normal",
+            normal.tolist(),
+            f"the normal must have as many coordinates as the point {self.point.tolist()}",
+        )
+        self.unit_normal = _unit(normal, "normal", "the plane's normal")
 
     def distance(self, x):
         return ufl.dot(
@@ -95,19 +102,36 @@ class SignedDistanceObstacle(Obstacle):
         return self._distance(x)
 
 
-def _finite_vector(value, what: str) -> np.ndarray:
-    array = np.asarray(value, dtype=float).reshape(-1)
-    if array.size == 0 or not np.all(np.isfinite(array)):
-        raise ValueError(f"{what} must be finite, got {array.tolist()}")
+def _coordinates(value, name: str, what: str) -> np.ndarray:
+    """``value``, a number or a list of 1 to 3 numbers, finite and of magnitude at most
+    :data:`~nitsche_dolfinx.keys.LARGEST` (the distances square them), as an array;
+    :class:`~nitsche_dolfinx.parameters.ParameterError` naming ``name`` otherwise."""
+    items = value.tolist() if isinstance(value, np.ndarray) else value
+    items = [items] if is_number(items) else items
+    fits = isinstance(items, (list, tuple)) and 1 <= len(items) <= 3
+    require(
+        fits and all(is_number(x) for x in items), name, value, f"{what} must be 1 to 3 numbers"
+    )
+    array = np.asarray(items, dtype=float)
+    require(np.all(np.isfinite(array)), name, array.tolist(), f"{what} must be finite")
+    require(
+        np.all(np.abs(array) <= LARGEST),
+        name,
+        array.tolist(),
+        f"{what} must have coordinates of magnitude at most {LARGEST:g}",
+    )
     return array
 
 
-def _check_radius(radius: float, side: str) -> float:
-    if not (np.isfinite(radius) and radius > 0):
-        raise ValueError(f"the radius must be positive, got {radius!r}")
-    if side not in ("outside", "inside"):
-        raise ValueError(f"side must be 'outside' or 'inside', got {side!r}")
-    return float(radius)
+def _unit(vector: np.ndarray, name: str, what: str) -> np.ndarray:
+    length = float(np.linalg.norm(vector))
+    require(length > 0.0, name, vector.tolist(), f"{what} must have a non-zero length")
+    return vector / length
+
+
+def _check_side(side: str) -> str:
+    require(side in ("outside", "inside"), "side", side, "where the body is: 'outside' or 'inside'")
+    return side
 
 
 def _constants(obstacle, x, *values) -> tuple:
@@ -161,9 +185,9 @@ class SphereObstacle(_RadialObstacle):
     """
 
     def __init__(self, center: Sequence[float], radius: float, side: str = "outside"):
-        self.center = _finite_vector(center, "the sphere's centre")
-        self.radius = _check_radius(radius, side)
-        self.side = side
+        self.center = _coordinates(center, "center", "the sphere's centre")
+        self.radius = require_positive(radius, "radius", "the radius")
+        self.side = _check_side(side)
 
     def _radial(self, x):
         """x - c, and the radius, with the centre and the radius as constants (another
@@ -193,17 +217,17 @@ class CylinderObstacle(_RadialObstacle):
     def __init__(
         self, point: Sequence[float], axis: Sequence[float], radius: float, side: str = "outside"
     ):
-        self.point = _finite_vector(point, "the cylinder's point")
-        axis = _finite_vector(axis, "the cylinder's axis")
-        length = float(np.linalg.norm(axis))
-        if length == 0.0 or axis.size != self.point.size:
-            raise ValueError(
-                f"the cylinder's axis {axis.tolist()} must be non-zero, with as many "
-                f"coordinates as its point {self.point.tolist()}"
-            )
-        self.axis = axis / length
-        self.radius = _check_radius(radius, side)
-        self.side = side
+        self.point = _coordinates(point, "point", "the cylinder's point")
+        axis = _coordinates(axis, "axis", "the cylinder's axis")
+        require(
+            axis.size == self.point.size,
+            "axis",
+            axis.tolist(),
+            f"the axis must have as many coordinates as the point {self.point.tolist()}",
+        )
+        self.axis = _unit(axis, "axis", "the cylinder's axis")
+        self.radius = require_positive(radius, "radius", "the radius")
+        self.side = _check_side(side)
 
     def _radial(self, x):
         """The component of x - point normal to the axis, and the radius (constants)."""
@@ -217,3 +241,55 @@ class CylinderObstacle(_RadialObstacle):
             f"CylinderObstacle(point={self.point.tolist()}, axis={self.axis.tolist()}, "
             f"radius={self.radius!r}, side={self.side!r})"
         )
+
+
+@dataclass(frozen=True)
+class ObstacleType:
+    """An obstacle of a configuration: what it is, the class that makes it (its keys are
+    the class's keyword arguments), its keys and the dimensions of the meshes it exists in.
+    """
+
+    meaning: str
+    make: Callable[..., Obstacle]
+    keys: dict[str, Key]
+    dimensions: tuple[int, ...]
+
+
+_SIDE = Key("string", "outside", "where the body is (inside: a cavity)", ("outside", "inside"))
+_RADIUS = Key("number", REQUIRED, "the radius")
+
+#: The obstacles of ``[[obstacle]] type = NAME``, by name.
+OBSTACLES: dict[str, ObstacleType] = {
+    "plane": ObstacleType(
+        "the half-space bounded by the plane through point",
+        PlaneObstacle,
+        {
+            "point": Key("vector", REQUIRED, "a point of the plane"),
+            "normal": Key("vector", REQUIRED, "the normal of the plane, towards the body"),
+        },
+        (1, 2, 3),
+    ),
+    "circle": ObstacleType(
+        "a circle",
+        SphereObstacle,
+        {"center": Key("vector", REQUIRED, "the centre"), "radius": _RADIUS, "side": _SIDE},
+        (2,),
+    ),
+    "sphere": ObstacleType(
+        "a sphere",
+        SphereObstacle,
+        {"center": Key("vector", REQUIRED, "the centre"), "radius": _RADIUS, "side": _SIDE},
+        (3,),
+    ),
+    "cylinder": ObstacleType(
+        "a circular cylinder",
+        CylinderObstacle,
+        {
+            "point": Key("vector", REQUIRED, "a point of the axis"),
+            "axis": Key("vector", REQUIRED, "the direction of the axis"),
+            "radius": _RADIUS,
+            "side": _SIDE,
+        },
+        (3,),
+    ),
+}

@@ -19,20 +19,26 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
+from .keys import LARGEST, is_integer, is_number
 
 __all__ = [
     "CONTACT_METHODS",
+    "GAMMA0_E_RANGE",
     "GAMMA0_SCALINGS",
     "MASS_MATRICES",
+    "MAX_QUADRATURE_DEGREE",
+    "MAX_STEPS",
     "Discretisation",
     "NitscheParameters",
     "OutputParameters",
     "ParameterError",
+    "SolverParameters",
     "TimeStepping",
-    "check_gamma0",
     "require",
     "require_choice",
+    "require_integer",
+    "require_positive",
+    "require_real",
 ]
 
 #: Contact methods: Nitsche, penalty, and the mixed method (a Lagrange multiplier, CN only).
@@ -42,10 +48,16 @@ CONTACT_METHODS = ("nitsche", "penalty", "mixed")
 GAMMA0_SCALINGS = ("absolute", "E")
 #: The range of the dimensionless gamma0 E: beyond it the contact is so soft that the
 #: obstacle is hardly there (the contact stiffness 1/gamma_h a hundredth of the body's
-#: E/h), or so stiff that the linear solves lose every digit.
+#: E/h), or so stiff that the linear solves lose every digit. Its top also bounds
+#: |Theta| gamma0 E: the weight of the term Theta gamma_h sigma_n(u) sigma_n(v) against
+#: the body's stiffness (docs/method.md section 10).
 GAMMA0_E_RANGE = (1e-12, 1e2)
 #: The most steps a run may make: more is a mistake in dt or t_end, not a run.
 MAX_STEPS = 10_000_000
+#: The highest quadrature degree: the integrands are polynomials of degree at most
+#: 2 degree + 2 (6 for P2 on curved cells) or piecewise ones ([x]_+); a higher degree
+#: only adds points (about (q/2)^d per cell).
+MAX_QUADRATURE_DEGREE = 30
 #: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
 MASS_MATRICES = ("consistent", "lumped", "redistributed")
 
@@ -79,16 +91,47 @@ def require(condition: bool, name: str, value, requirement: str) -> None:
         raise ParameterError(name, value, requirement)
 
 
-def _finite(value) -> bool:
-    try:
-        return bool(np.isfinite(value))
-    except TypeError:
-        return False
-
-
 def require_choice(value, choices, name: str, what: str) -> None:
     """Raise :class:`ParameterError` unless ``value`` is one of ``choices``."""
-    require(value in choices, name, value, f"unknown {what}; choose one of {', '.join(choices)}")
+    known = isinstance(value, str) and value in choices
+    require(known, name, value, f"unknown {what}; choose one of {', '.join(choices)}")
+
+
+def require_real(value, name: str, what: str) -> float:
+    """``value`` as a float: a real number (not a string or a bool), finite, of magnitude
+    at most :data:`~nitsche_dolfinx.keys.LARGEST` (the forms multiply up to three such
+    numbers); :class:`ParameterError` naming ``name`` otherwise."""
+    require(is_number(value), name, value, f"{what} must be a number, got {type(value).__name__}")
+    require(math.isfinite(value), name, value, f"{what} must be finite")
+    require(
+        abs(value) <= LARGEST,
+        name,
+        value,
+        f"{what} must be at most {LARGEST:g} in magnitude (the forms multiply up to three "
+        "such numbers)",
+    )
+    return float(value)
+
+
+def require_positive(value, name: str, what: str) -> float:
+    """``value`` as a float in [1 / LARGEST, LARGEST] (see :func:`require_real`)."""
+    require_real(value, name, what)
+    require(
+        value >= 1.0 / LARGEST,
+        name,
+        value,
+        f"{what} must be positive, at least {1.0 / LARGEST:g} (the forms multiply up to "
+        "three such numbers)",
+    )
+    return float(value)
+
+
+def require_integer(value, name: str, what: str, low: int, high: int | None = None) -> int:
+    """``value`` as an int from ``low`` to ``high`` (None: no upper bound)."""
+    fits = is_integer(value) and low <= value and (high is None or value <= high)
+    span = f"from {low} to {high}" if high is not None else f">= {low}"
+    require(fits, name, value, f"{what} must be an integer {span}")
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -96,16 +139,18 @@ class TimeStepping:
     """The time step tau and the final time T: 0 < dt <= t_end, both finite. T is reached
     exactly: when it is not a multiple of tau, the last step is shorter. A step whose
     Newton solve fails is halved, down to tau / 2^max_step_cuts, before the run stops
-    (docs/method.md section 8)."""
+    (docs/method.md section 8). The schemes multiply by dt^2: dt lies in
+    [1 / LARGEST, LARGEST], where dt^2 is a normal double."""
 
     dt: float
     t_end: float
     max_step_cuts: int = 5
 
     def __post_init__(self):
-        require(_finite(self.dt) and self.dt > 0, "dt", self.dt, "the time step must be positive")
+        require_positive(self.dt, "dt", "the time step")
+        require_real(self.t_end, "t_end", "the final time")
         require(
-            _finite(self.t_end) and self.t_end >= self.dt,
+            self.t_end >= self.dt,
             "t_end",
             self.t_end,
             f"the final time must be finite and at least one time step (dt={self.dt!r})",
@@ -117,14 +162,7 @@ class TimeStepping:
             self.t_end,
             f"t_end / dt = {steps:.3g} steps, more than {MAX_STEPS:.0e}: check dt={self.dt!r}",
         )
-        require(
-            isinstance(self.max_step_cuts, (int, np.integer))
-            and not isinstance(self.max_step_cuts, bool)
-            and 0 <= self.max_step_cuts <= 30,
-            "max_step_cuts",
-            self.max_step_cuts,
-            "must be an integer from 0 to 30",
-        )
+        require_integer(self.max_step_cuts, "max_step_cuts", "the number of step cuts", 0, 30)
 
     @property
     def num_steps(self) -> int:
@@ -136,7 +174,10 @@ class TimeStepping:
 @dataclass(frozen=True)
 class NitscheParameters:
     """The contact terms: gamma_h = gamma0 h_T (or gamma0 h_T / E, see ``gamma0_scaling``),
-    the variant Theta, Coulomb's mu_f and the method (see docs/method.md sections 2 and 10)."""
+    the variant Theta, Coulomb's mu_f and the method (see docs/method.md sections 2 and 10).
+
+    gamma0 and Theta are checked against the body's Young modulus by :meth:`check_scale`
+    (:class:`~nitsche_dolfinx.model.ContactProblem` calls it)."""
 
     gamma0: float = 1.0
     nitsche_theta: float = 1.0
@@ -145,25 +186,23 @@ class NitscheParameters:
     gamma0_scaling: str = "absolute"
 
     def __post_init__(self):
-        require(
-            _finite(self.gamma0) and self.gamma0 > 0,
-            "gamma0",
-            self.gamma0,
-            "the Nitsche parameter must be positive",
-        )
+        require_positive(self.gamma0, "gamma0", "the Nitsche parameter")
         require_choice(self.gamma0_scaling, GAMMA0_SCALINGS, "gamma0_scaling", "scaling of gamma0")
+        theta = self.nitsche_theta
         require(
-            _finite(self.nitsche_theta),
+            is_number(theta) and math.isfinite(theta),
             "nitsche_theta",
-            self.nitsche_theta,
-            "the Nitsche variant must be finite (1 symmetric, 0 non-symmetric, -1 skew)",
+            theta,
+            "the Nitsche variant must be a finite number (1 symmetric, 0 non-symmetric, -1 skew)",
         )
-        require(
-            self.friction is None or (_finite(self.friction) and self.friction >= 0),
-            "friction",
-            self.friction,
-            "the friction coefficient must be >= 0 (or None: frictionless)",
-        )
+        if self.friction is not None:
+            require_real(self.friction, "friction", "the friction coefficient")
+            require(
+                self.friction >= 0,
+                "friction",
+                self.friction,
+                "the friction coefficient must be >= 0 (or None: frictionless)",
+            )
         require_choice(self.method, CONTACT_METHODS, "method", "contact method")
         require(
             self.method != "mixed" or self.friction is None,
@@ -172,22 +211,34 @@ class NitscheParameters:
             "the mixed method is frictionless",
         )
 
-
-def check_gamma0(gamma0: float, scaling: str, E: float) -> float:
-    """The dimensionless gamma0 E (``scaling`` ``"absolute"``) or gamma0 (``"E"``), checked
-    against :data:`GAMMA0_E_RANGE`; the Young modulus ``E`` is the body's."""
-    dimensionless = gamma0 * E if scaling == "absolute" else gamma0
-    low, high = GAMMA0_E_RANGE
-    in_words = f"gamma0 * E = {dimensionless:.3g}" if scaling == "absolute" else "gamma0"
-    require(
-        low <= dimensionless <= high,
-        "gamma0",
-        gamma0,
-        f"{in_words} is outside [{low:g}, {high:g}]: above, the contact is a hundred times "
-        f"softer than the body (the obstacle is hardly there); below, the linear solves lose "
-        f"every digit (about 1e-3 suits P1 and P2, docs/method.md section 10)",
-    )
-    return dimensionless
+    def check_scale(self, E: float) -> float:
+        """The dimensionless gamma0 E (``gamma0_scaling`` ``"absolute"``) or gamma0
+        (``"E"``), checked against :data:`GAMMA0_E_RANGE`, and |Theta| times it against
+        the range's top; ``E`` is the body's Young modulus (docs/method.md section 10)."""
+        absolute = self.gamma0_scaling == "absolute"
+        dimensionless = self.gamma0 * E if absolute else self.gamma0
+        low, high = GAMMA0_E_RANGE
+        in_words = f"gamma0 * E = {dimensionless:.3g}" if absolute else "gamma0"
+        require(
+            low <= dimensionless <= high,
+            "gamma0",
+            self.gamma0,
+            f"{in_words} is outside [{low:g}, {high:g}]: above, the contact is a hundred times "
+            f"softer than the body (the obstacle is hardly there); below, the linear solves "
+            f"lose every digit (about 1e-3 suits P1 and P2, docs/method.md section 10)",
+        )
+        weight = abs(self.nitsche_theta) * dimensionless
+        require(
+            weight <= high,
+            "nitsche_theta",
+            self.nitsche_theta,
+            f"|Theta| gamma0{' E' * absolute} = {weight:.3g} is above {high:g}: the term "
+            "Theta gamma_h sigma_n(u) sigma_n(v) would outweigh the body's stiffness a(u, v) "
+            f"more than {high:g}-fold (Theta > 0: A_Theta no longer coercive; Theta < 0: the "
+            "body lost in round-off, overflow further on); the variants are Theta in [-1, 1] "
+            "(docs/method.md section 10)",
+        )
+        return dimensionless
 
 
 @dataclass(frozen=True)
@@ -200,7 +251,12 @@ class Discretisation:
     quadrature_degree: int | None = None
 
     def __post_init__(self):
-        require(self.degree in (1, 2), "degree", self.degree, "the degree must be 1 or 2")
+        require(
+            is_integer(self.degree) and self.degree in (1, 2),
+            "degree",
+            self.degree,
+            "the degree must be 1 or 2",
+        )
         require_choice(self.mass, MASS_MATRICES, "mass", "mass")
         require(
             self.mass == "consistent" or self.degree == 1,
@@ -208,12 +264,14 @@ class Discretisation:
             self.mass,
             f"this mass needs P1 elements, got degree={self.degree!r}",
         )
-        require(
-            self.quadrature_degree is None or int(self.quadrature_degree) >= 0,
-            "quadrature_degree",
-            self.quadrature_degree,
-            "the quadrature degree must be >= 0",
-        )
+        if self.quadrature_degree is not None:
+            require_integer(
+                self.quadrature_degree,
+                "quadrature_degree",
+                "the quadrature degree",
+                0,
+                MAX_QUADRATURE_DEGREE,
+            )
 
 
 @dataclass(frozen=True)
@@ -227,9 +285,23 @@ class OutputParameters:
     def __post_init__(self):
         for name in ("output_every", "checkpoint_every"):
             value = getattr(self, name)
-            require(
-                isinstance(value, (int, np.integer)) and value >= 0,
-                name,
-                value,
-                "must be an integer >= 0",
-            )
+            require(is_integer(value) and value >= 0, name, value, "must be an integer >= 0")
+
+
+@dataclass(frozen=True)
+class SolverParameters:
+    """How a step's Newton solver works (see :class:`~nitsche_dolfinx.simulation.Simulation`):
+    the bulk Jacobian assembled once, a factorisation kept as GMRES preconditioner for up
+    to ``preconditioner_lag`` iterations, the guarded Newton for friction."""
+
+    reuse_jacobian: bool = True
+    preconditioner_lag: int = 0
+    guard_friction: bool = True
+
+    def __post_init__(self):
+        for name in ("reuse_jacobian", "guard_friction"):
+            value = getattr(self, name)
+            require(isinstance(value, bool), name, value, "must be True or False")
+        require_integer(
+            self.preconditioner_lag, "preconditioner_lag", "the preconditioner's lag", 0
+        )

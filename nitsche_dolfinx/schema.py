@@ -2,8 +2,15 @@
 
 :data:`SCHEMA` is the one source of both the type checks of
 :func:`nitsche_dolfinx.config.validate` and the text of ``nitsche-dolfinx schema``
-(:func:`describe`). The values' ranges are checked where they are used: by the parameter
-objects of :mod:`nitsche_dolfinx.parameters` and by :mod:`nitsche_dolfinx.config`.
+(:func:`describe`). It is assembled from the registries that own their keys: the run
+parameters (:data:`~nitsche_dolfinx.parameter_table.PARAMETERS`), the schemes
+(:data:`~nitsche_dolfinx.schemes.SCHEMES`), the obstacles
+(:data:`~nitsche_dolfinx.obstacles.OBSTACLES`) and the mesh generators
+(:data:`~nitsche_dolfinx.mesh_generators.MESH_GENERATORS`); the tables of terms
+(loads, Dirichlet values, probes...) are described here. The values' ranges are
+checked where they are used: by the parameter objects of
+:mod:`nitsche_dolfinx.parameters`, the obstacles' classes, and
+:mod:`nitsche_dolfinx.config`.
 """
 
 from __future__ import annotations
@@ -11,70 +18,19 @@ from __future__ import annotations
 import textwrap
 from dataclasses import dataclass, field
 
-from .linear_solvers import LINEAR_SOLVERS
+from .keys import REQUIRED, Key, toml_text
 from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
-from .parameters import CONTACT_METHODS, GAMMA0_SCALINGS, MASS_MATRICES
-from .schemes import SCHEMES
+from .obstacles import OBSTACLES
+from .parameter_table import by_name, toml_keys
 from .valueforms import PROFILES
 
 __all__ = [
     "FACET_SELECTORS",
-    "KINDS",
-    "OBSTACLE_TYPES",
     "PROBE_QUANTITIES",
     "SCHEMA",
-    "Key",
     "Table",
     "describe",
 ]
-
-
-class _Required:
-    def __repr__(self):
-        return "required"
-
-
-#: The default of a key that must be given.
-REQUIRED = _Required()
-
-
-@dataclass(frozen=True)
-class Key:
-    """One key: its kind (a key of :data:`KINDS`), its default (:data:`REQUIRED`, None for
-    "not set", or a value), what it means, and the choices of a string key."""
-
-    kind: str
-    default: object
-    meaning: str
-    choices: tuple = ()
-    shown_default: str | None = None  # the default in words, when not a plain value
-
-    @property
-    def required(self) -> bool:
-        return self.default is REQUIRED
-
-    def default_text(self) -> str:
-        """The default as TOML writes it (or in words)."""
-        if self.shown_default is not None:
-            return self.shown_default
-        return (
-            "required"
-            if self.required
-            else "none"
-            if self.default is None
-            else toml_text(self.default)
-        )
-
-
-def toml_text(value) -> str:
-    """``value`` as TOML writes it."""
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_text(x) for x in value) + "]"
-    return repr(value)
 
 
 @dataclass(frozen=True)
@@ -91,52 +47,15 @@ class Table:
         return f"[[{name}]]" if self.array else f"[{name}]"
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-#: kind -> (how it is named in messages, the check of a value's type).
-KINDS = {
-    "string": ("a string", lambda v: isinstance(v, str)),
-    "integer": ("an integer", lambda v: isinstance(v, int) and not isinstance(v, bool)),
-    "number": ("a number", _is_number),
-    "boolean": ("true or false", lambda v: isinstance(v, bool)),
-    "vector": (
-        "a number or a list of numbers",
-        lambda v: _is_number(v) or (isinstance(v, list) and all(_is_number(x) for x in v)),
-    ),
-    "tag pair": (
-        "a list of two integer tags",
-        lambda v: isinstance(v, list) and len(v) == 2 and all(KINDS["integer"][1](x) for x in v),
-    ),
-    "strings": (
-        "a list of strings",
-        lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v),
-    ),
-    # checked in depth by nitsche_dolfinx.valueforms
-    "value in time": (
-        "a vector, a table [[t, value...], ...] or a profile {profile = ...}",
-        lambda v: _is_number(v) or isinstance(v, (list, dict)),
-    ),
-    "value in x": (
-        "a vector or {constant, gradient, hessian}",
-        lambda v: _is_number(v) or isinstance(v, (list, dict)),
-    ),
-    # its keys: FACET_SELECTORS
-    "selector": ("an inline table { key = value, ... }", lambda v: isinstance(v, dict)),
-}
-
-#: Obstacle types -> the keys each takes (besides type and tag) and what it is.
-OBSTACLE_TYPES = {
-    "plane": (("point", "normal"), "the half-space bounded by the plane through point"),
-    "circle": (("center", "radius", "side"), "a circle (2D)"),
-    "sphere": (("center", "radius", "side"), "a sphere (3D)"),
-    "cylinder": (("point", "axis", "radius", "side"), "a circular cylinder (3D)"),
-}
 #: Probe quantities: whether they take a component (and a point).
 PROBE_QUANTITIES = {"displacement": True, "velocity": True, "contact_pressure": False}
 
 _FROM_EXTENT = "1e-8 times the largest |coordinate| of the mesh"
+
+
+def _non_negative(value) -> bool:
+    return value >= 0
+
 
 #: The facet selectors of [[facet_tag]] (inline tables), those of nitsche_dolfinx.meshes
 #: (OnPlane, NormalWithin, InBox) with their arguments as keys.
@@ -147,7 +66,14 @@ FACET_SELECTORS = {
         {
             "point": Key("vector", REQUIRED, "a point of the plane"),
             "normal": Key("vector", REQUIRED, "a normal of the plane (not zero)"),
-            "tolerance": Key("number", None, "the distance allowed", shown_default=_FROM_EXTENT),
+            "tolerance": Key(
+                "number",
+                None,
+                "the distance allowed",
+                shown_default=_FROM_EXTENT,
+                check=_non_negative,
+                requirement=">= 0",
+            ),
         },
     ),
     "normal_within": Table(
@@ -163,14 +89,17 @@ FACET_SELECTORS = {
         {
             "lower": Key("vector", REQUIRED, "the lower corner"),
             "upper": Key("vector", REQUIRED, "the upper corner (upper >= lower)"),
-            "tolerance": Key("number", None, "the widening", shown_default=_FROM_EXTENT),
+            "tolerance": Key(
+                "number",
+                None,
+                "the widening",
+                shown_default=_FROM_EXTENT,
+                check=_non_negative,
+                requirement=">= 0",
+            ),
         },
     ),
 }
-
-
-def _choices(names) -> str:
-    return " | ".join(names)
 
 
 _MESH_KEYS = {
@@ -182,19 +111,34 @@ _MESH_KEYS = {
         "string", None, "a mesh of the library (see the generators below)",
         tuple(MESH_GENERATORS),
     ),
-    "gdim": Key("integer", None, "geometric dimension of a .msh file", shown_default="the file's"),
-    **{
-        name: Key(kind, None, meaning, shown_default="the generator's")
-        for name, (kind, meaning, _, _) in GENERATOR_KEYS.items()
-    },
-    "degree": Key("integer", 1, "Lagrange degree of the displacement: 1 or 2"),
-    "mass": Key("string", "consistent", "mass matrix (lumped and redistributed: P1)",
-                MASS_MATRICES),
-    "quadrature_degree": Key(
-        "integer", None, "quadrature degree of every integral",
-        shown_default="2 degree (+ 2 on curved cells)",
-    ),
+    "gdim": Key("integer", None, "geometric dimension of a .msh file", shown_default="the file's",
+                check=(1, 2, 3).__contains__, requirement="1, 2 or 3"),
+    **GENERATOR_KEYS,
+    **toml_keys("mesh"),
 }  # fmt: skip
+
+
+def _obstacle_keys() -> dict[str, Key]:
+    """The keys of [[obstacle]]: its type and tag, and those of every type of
+    :data:`~nitsche_dolfinx.obstacles.OBSTACLES` (required by the types that take them)."""
+    keys = {
+        "type": Key("string", "plane", "what it is", tuple(OBSTACLES)),
+        "tag": Key("integer", REQUIRED, "facet tag of Gamma_C"),
+    }
+    users: dict[str, list[str]] = {}
+    for name, obstacle in OBSTACLES.items():
+        for key in obstacle.keys:
+            users.setdefault(key, []).append(name)
+    for key, names in users.items():
+        specs = [OBSTACLES[name].keys[key] for name in names]
+        meanings = {spec.meaning: [n for n, s in zip(names, specs) if s.meaning == spec.meaning]
+                    for spec in specs}  # fmt: skip
+        meaning = "; ".join(f"{', '.join(kinds)}: {text}" for text, kinds in meanings.items())
+        first = specs[0]
+        default = None if first.required else first.default
+        keys[key] = Key(first.kind, default, meaning, first.choices)
+    return keys
+
 
 #: For each table: what it is and its keys.
 SCHEMA: dict[str, Table] = {
@@ -206,7 +150,8 @@ SCHEMA: dict[str, Table] = {
         {
             "tag": Key("integer", REQUIRED, "the facet tag, from 1 to 2^31 - 1; a facet "
                        "keeps the last tag that chooses it, else its tag in the mesh (several "
-                       "tables of one tag: the union of their facets)"),
+                       "tables of one tag: the union of their facets)",
+                       check=lambda tag: 1 <= tag < 2**31, requirement="from 1 to 2^31 - 1"),
             **{
                 name: Key("selector", None, f"{table.meaning} (keys: below)",
                           shown_default="none")
@@ -217,67 +162,17 @@ SCHEMA: dict[str, Table] = {
     ),
     "material": Table(
         "linear elasticity: E and nu, or lmbda and mu (plane strain in 2D)",
-        {
-            "E": Key("number", None, "Young's modulus"),
-            "nu": Key("number", None, "Poisson's ratio, in (-1, 1/2)"),
-            "lmbda": Key("number", None, "first Lame coefficient"),
-            "mu": Key("number", None, "shear modulus"),
-            "rho": Key("number", 1.0, "density"),
-        },
+        toml_keys("material"),
         required=True,
     ),
-    "nitsche": Table(
-        "the contact terms (docs/method.md sections 2 and 10)",
-        {
-            "method": Key("string", "nitsche", "contact method (mixed: a Lagrange multiplier, "
-                          "one obstacle, scheme cn)", CONTACT_METHODS),
-            "gamma0": Key("number", 1e-3, "Nitsche parameter: gamma_h = gamma0 h (penalty: "
-                          "eps = gamma0 h)"),
-            "gamma0_scaling": Key("string", "absolute", "absolute: gamma0 in 1/stress; E: "
-                                  "gamma_h = gamma0 h / E", GAMMA0_SCALINGS),
-            "theta": Key("number", 1.0, "the variant Theta: 1 symmetric, 0 non-symmetric, "
-                         "-1 skew-symmetric"),
-            "friction": Key("number", None, "Coulomb coefficient mu_f >= 0",
-                            shown_default="frictionless"),
-        },
-    ),
-    "scheme": Table(
-        "the time scheme and the time steps",
-        {
-            "name": Key("string", "hybrid", "time scheme", tuple(SCHEMES)),
-            "dt": Key("number", REQUIRED, "time step tau"),
-            "t_end": Key("number", REQUIRED, "final time T (a shorter last step reaches it)"),
-            "theta": Key("number", 1.0, "theta of the theta scheme, in [1/2, 1]"),
-            "beta": Key("number", 0.25, "beta of the Newmark scheme"),
-            "gamma": Key("number", 0.5, "gamma of the Newmark scheme"),
-            "max_step_cuts": Key("integer", 5, "a failing step is halved down to dt / 2^N"),
-        },
-        required=True,
-    ),
+    "nitsche": Table("the contact terms (docs/method.md sections 2 and 10)", toml_keys("nitsche")),
+    "scheme": Table("the time scheme and the time steps", toml_keys("scheme"), required=True),
     "solver": Table(
-        "the Newton solver of a step (PETSc options: [petsc])",
-        {
-            "linear_solver": Key("string", "auto", "linear solver preset (auto: chosen from "
-                                 "the problem)", tuple(LINEAR_SOLVERS)),
-            "reuse_jacobian": Key("boolean", True, "assemble the bulk Jacobian once"),
-            "preconditioner_lag": Key("integer", 0, "keep a factorisation as GMRES "
-                                      "preconditioner up to this many iterations (0: never)"),
-            "guard_friction": Key("boolean", True, "solve friction by the guarded Newton"),
-        },
+        "the Newton solver of a step (PETSc options: [petsc])", toml_keys("solver")
     ),
     "obstacle": Table(
-        "a rigid obstacle in contact with the facets tag",
-        {
-            "type": Key("string", "plane", "what it is", tuple(OBSTACLE_TYPES)),
-            "tag": Key("integer", REQUIRED, "facet tag of Gamma_C"),
-            "point": Key("vector", None, "plane: a point of it; cylinder: a point of its axis"),
-            "normal": Key("vector", None, "plane: its normal, towards the body"),
-            "center": Key("vector", None, "circle, sphere: the centre"),
-            "axis": Key("vector", None, "cylinder: the direction of its axis"),
-            "radius": Key("number", None, "circle, sphere, cylinder: the radius"),
-            "side": Key("string", "outside", "circle, sphere, cylinder: where the body is "
-                        "(inside: a cavity)", ("outside", "inside")),
-        },
+        "a rigid obstacle in contact with the facets tag (its keys: those of its type, below)",
+        _obstacle_keys(),
         array=True,
     ),
     "contact_pair": Table(
@@ -298,7 +193,9 @@ SCHEMA: dict[str, Table] = {
             "value": Key("value in time", REQUIRED, "the displacement (with component: a "
                          "scalar, the value of that component)"),
             "component": Key("integer", None, "prescribe only this component (0: x, 1: y, "
-                             "2: z), the others free", shown_default="all"),
+                             "2: z), the others free", shown_default="all",
+                             check=(0, 1, 2).__contains__,
+                             requirement="0 (x), 1 (y) or 2 (z)"),
         },
         array=True,
     ),
@@ -314,13 +211,7 @@ SCHEMA: dict[str, Table] = {
         "a volume force f (gravity: rho g)",
         {"value": Key("value in time", REQUIRED, "the force per unit volume")},
     ),
-    "initial": Table(
-        "the initial values",
-        {
-            "displacement": Key("value in x", None, "u0", shown_default="0"),
-            "velocity": Key("value in x", None, "v0 (or per body: [[body]])", shown_default="0"),
-        },
-    ),
+    "initial": Table("the initial values", toml_keys("initial")),
     "body": Table(
         "a body of a two-body mesh (its cells tagged tag)",
         {
@@ -347,22 +238,9 @@ SCHEMA: dict[str, Table] = {
     ),
     "output": Table(
         "what the run writes (relative paths: from the TOML file's folder)",
-        {
-            "dir": Key("string", None, "output folder", shown_default="out/<TOML name>"),
-            "every": Key("integer", None, "write the fields every N steps (0: never)",
-                         shown_default="about 50 outputs"),
-            "checkpoint_every": Key("integer", 0, "save the state every N steps (0: only when "
-                                    "the run stops early)"),
-            "columns": Key("strings", None, "the columns of history.csv, any of the run's: "
-                           "those of the demos, dt, step_cuts, momentum_x, ... and "
-                           "centre_of_mass_x, ... (1D: momentum, centre_of_mass), "
-                           "contact_force_k and contact_area_k (the k-th obstacle; a contact "
-                           "pair counts two), friction_dissipation, energy_balance_residual, "
-                           "the probes' names",
-                           shown_default="those of the 2D/3D demos, then the probes"),
-        },
+        toml_keys("output"),
     ),
-    "petsc": Table("PETSc options of the step's solver, flat: snes_rtol = 1e-8", free=True),
+    "petsc": Table(by_name("petsc_options").key.meaning, free=True),
 }  # fmt: skip
 
 _FORMS = """\
@@ -403,9 +281,10 @@ def describe(width: int = 100) -> str:
         keys = ", ".join(f"{key} = {toml_text(value)}" for key, value in generator.keys.items())
         add(f"  {name:16s}", f"{generator.meaning}; {keys}; {generator.tags}", 19)
     lines.append("")
-    lines.append("Obstacle types ([[obstacle]] type = NAME) and their keys:")
-    for name, (keys, what) in OBSTACLE_TYPES.items():
-        add(f"  {name:16s}", f"{what}: {', '.join(keys)}", 19)
+    lines.append("Obstacle types ([[obstacle]] type = NAME), their dimensions and keys:")
+    for name, obstacle in OBSTACLES.items():
+        dimensions = ", ".join(f"{d}D" for d in obstacle.dimensions)
+        add(f"  {name:16s}", f"{obstacle.meaning} ({dimensions}): {', '.join(obstacle.keys)}", 19)
     lines.append("")
     profiles = "\n".join(
         f"  {{ profile = {toml_text(name)}, {', '.join(keys)} }}"

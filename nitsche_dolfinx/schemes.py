@@ -23,7 +23,8 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from .parameters import require, require_choice
+from .keys import Key
+from .parameters import require, require_choice, require_real
 
 __all__ = [
     "CrankNicolson",
@@ -32,8 +33,9 @@ __all__ = [
     "NewmarkScheme",
     "ThetaScheme",
     "TimeScheme",
-    "make_scheme",
     "SCHEMES",
+    "make_scheme",
+    "scheme_parameters",
 ]
 
 
@@ -69,8 +71,9 @@ class TimeScheme:
     """
 
     name = "scheme"
-    #: The names of the constructor's parameters (the keys :func:`make_scheme` passes).
-    parameters: tuple[str, ...] = ()
+    #: The constructor's parameters (the keys :func:`make_scheme` passes): their kind,
+    #: default and meaning, for ``[scheme]`` in TOML and the demos' flags.
+    parameters: dict[str, Key] = {}
 
     def kinematics(self, u, v, a, w, dt):
         """``(u^{n+1}, v^{n+1}, a^{n+1})`` from the state at t^n and the unknown ``w``."""
@@ -102,9 +105,10 @@ class ThetaScheme(TimeScheme):
     """
 
     name = "theta"
-    parameters = ("theta",)
+    parameters = {"theta": Key("number", 1.0, "theta of the theta scheme, in [0, 1]")}
 
     def __init__(self, theta: float = 1.0):
+        require_real(theta, "theta", "theta")
         require(0.0 <= theta <= 1.0, "theta", theta, "theta must lie in [0, 1]")
         self.theta = float(theta)
 
@@ -122,7 +126,7 @@ class CrankNicolson(ThetaScheme):
     """Crank-Nicolson: the theta-scheme with theta = 1/2."""
 
     name = "cn"
-    parameters = ()
+    parameters = {}
 
     def __init__(self):
         super().__init__(0.5)
@@ -140,9 +144,14 @@ class NewmarkScheme(TimeScheme):
     """
 
     name = "newmark"
-    parameters = ("beta", "gamma")
+    parameters = {
+        "beta": Key("number", 0.25, "beta of the Newmark scheme, in [0, 1/2]"),
+        "gamma": Key("number", 0.5, "gamma of the Newmark scheme, in [0, 1]"),
+    }
 
     def __init__(self, beta: float = 0.25, gamma: float = 0.5):
+        require_real(beta, "beta", "Newmark beta")
+        require_real(gamma, "gamma", "Newmark gamma")
         require(0.0 <= beta <= 0.5, "beta", beta, "Newmark beta must lie in [0, 1/2]")
         require(0.0 <= gamma <= 1.0, "gamma", gamma, "Newmark gamma must lie in [0, 1]")
         self.beta = float(beta)
@@ -185,7 +194,8 @@ class HybridScheme(TimeScheme):
         return t + dt / 2
 
 
-#: The schemes by name: the demos' ``--scheme`` flag and ``[scheme] name`` in TOML.
+#: The schemes by name: the demos' ``--scheme`` flag and ``[scheme] name`` in TOML. A
+#: scheme's ``parameters`` are its keys in ``[scheme]`` and its flags.
 SCHEMES: dict[str, type[TimeScheme]] = {
     "hybrid": HybridScheme,
     "theta": ThetaScheme,
@@ -194,10 +204,19 @@ SCHEMES: dict[str, type[TimeScheme]] = {
 }
 
 
+def scheme_parameters() -> dict[str, Key]:
+    """The parameters of every scheme of :data:`SCHEMES`, by name (one key per name)."""
+    keys: dict[str, Key] = {}
+    for cls in SCHEMES.values():
+        keys.update(cls.parameters)
+    return keys
+
+
 def make_scheme(
     name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5
 ) -> TimeScheme:
-    """The scheme called ``name`` (a key of :data:`SCHEMES`) with the parameters it takes."""
+    """The scheme called ``name`` (a key of :data:`SCHEMES`) with the parameters it takes
+    (the others are ignored)."""
     require_choice(name, SCHEMES, "scheme", "scheme")
     cls = SCHEMES[name]
     given = {"theta": theta, "beta": beta, "gamma": gamma}

@@ -26,7 +26,7 @@ from .linear_solvers import linear_solver as linear_solver_preset
 from .mixed import MixedStepper
 from .model import ContactProblem
 from .output import HistoryWriter, SolutionWriter, ensure_directory
-from .parameters import OutputParameters, TimeStepping, require
+from .parameters import OutputParameters, SolverParameters, TimeStepping, require
 from .progress import Progress
 from .schemes import TimeScheme
 from .series import continue_solution
@@ -111,6 +111,7 @@ class Simulation:
         max_step_cuts: int = 5,
     ):
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         self.max_step_cuts = int(max_step_cuts)
         chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
         if linear_solver == "auto" and chosen:

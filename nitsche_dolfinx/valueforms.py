@@ -28,6 +28,8 @@ import math
 
 import numpy as np
 
+from .keys import LARGEST, is_number
+
 __all__ = [
     "FIELD_KEYS",
     "PROFILES",
@@ -113,17 +115,22 @@ def _array(value, shape) -> np.ndarray:
     return array
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+def _finite(numbers) -> bool:
+    """Finite numbers of magnitude at most :data:`~nitsche_dolfinx.keys.LARGEST`."""
+    return all(math.isfinite(x) and abs(x) <= LARGEST for x in numbers)
+
+
+#: What the numbers of a value must be.
+_FINITE = f"must be finite (no nan or inf), of magnitude at most {LARGEST:g}"
 
 
 def _vector(value, what: str = "a number or a list of numbers") -> list[float]:
     """``value`` as a list of finite floats (a number is a list of one)."""
-    items = [value] if _is_number(value) else value
-    if not isinstance(items, list) or not items or not all(_is_number(x) for x in items):
+    items = [value] if is_number(value) else value
+    if not isinstance(items, list) or not items or not all(is_number(x) for x in items):
         raise ValueError(f"must be {what}")
-    if not all(math.isfinite(x) for x in items):
-        raise ValueError("must be finite (no nan or inf)")
+    if not _finite(items):
+        raise ValueError(_FINITE)
     return [float(x) for x in items]
 
 
@@ -157,8 +164,8 @@ def _check_profile(value: dict) -> int:
             raise ValueError(f"misses {key!r} (the {name!r} profile takes {', '.join(keys)})")
     scalars = {key: v for key, v in value.items() if key not in ("profile", "value", "amplitude")}
     for key, number in scalars.items():
-        if not _is_number(number) or not math.isfinite(number):
-            raise ValueError(f"{key} must be a finite number, got {number!r}")
+        if not is_number(number) or not _finite([number]):
+            raise ValueError(f"{key} must be a finite number, at most {LARGEST:g}, got {number!r}")
     for key in ("duration", "frequency"):
         if key in scalars and scalars[key] <= 0:
             raise ValueError(f"{key} must be positive, got {scalars[key]!r}")
@@ -177,10 +184,12 @@ def check_field_value(value) -> int:
         numbers = np.asarray(array, dtype=object)
         flat = numbers.ravel().tolist()
         rank = len(FIELD_KEYS[key].split(" x "))
-        if numbers.ndim != rank or not all(_is_number(x) for x in flat):
+        if numbers.ndim != rank or not all(is_number(x) for x in flat):
             raise ValueError(f"{key} must be an array of numbers of shape {FIELD_KEYS[key]}")
-        if len(set(numbers.shape)) != 1 or not all(math.isfinite(x) for x in flat):
-            raise ValueError(f"{key} must be finite, of shape {FIELD_KEYS[key]}")
+        if len(set(numbers.shape)) != 1:
+            raise ValueError(f"{key} must be of shape {FIELD_KEYS[key]}")
+        if not _finite(flat):
+            raise ValueError(f"{key} {_FINITE}")
         sizes.add(numbers.shape[0])
     if len(sizes) != 1:
         raise ValueError("constant, gradient and hessian must be of one dimension d")

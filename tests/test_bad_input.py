@@ -9,7 +9,7 @@ import math
 import os
 
 import pytest
-from runs import MPIRUN, REPO, assert_one_line_error, ring_config, run
+from runs import MESH, MPIRUN, REPO, assert_one_line_error, ring_config, run
 
 from nitsche_dolfinx import (
     ContactProblem,
@@ -22,6 +22,7 @@ from nitsche_dolfinx import (
 from nitsche_dolfinx.cases import bar_problem
 from nitsche_dolfinx.diagnostics import PointValue
 from nitsche_dolfinx.meshes import NormalWithin, load_mesh, tag_facets
+from nitsche_dolfinx.obstacles import CylinderObstacle, SphereObstacle
 from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
 from nitsche_dolfinx.shapes import check_body_mesh
 
@@ -60,10 +61,28 @@ API = {
     "dt-zero": (lambda: TimeStepping(0.0, 1.0), "dt=0.0"),
     "dt-nan": (lambda: TimeStepping(math.nan, 1.0), "dt=nan"),
     "t-end-below-dt": (lambda: TimeStepping(0.1, 0.05), "t_end=0.05"),
-    "too-many-steps": (lambda: TimeStepping(1e-300, 1e300), "t_end=1e+300"),
+    "too-many-steps": (lambda: TimeStepping(1e-50, 1e50), "t_end=1e+50"),
+    "dt-string": (
+        lambda: Simulation(bar(), HybridScheme(), dt="0.1", t_end=1.0),
+        "dt='0.1': the time step must be a number, got str",
+    ),
+    "dt-huge": (lambda: TimeStepping(1e200, 1e201), "dt=1e+200: the time step must be at most"),
+    "dt-tiny": (lambda: TimeStepping(1e-200, 1e-199), "dt=1e-200: the time step must be positive"),
+    "t-end-inf": (lambda: TimeStepping(0.1, math.inf), "t_end=inf: the final time must be finite"),
     "gamma0-zero": (lambda: bar(gamma0=0.0), "gamma0=0.0"),
     "gamma0-inf": (lambda: bar(gamma0=math.inf), "gamma0=inf"),
     "theta-nan": (lambda: bar(nitsche_theta=math.nan), "nitsche_theta=nan"),
+    # the bar: gamma0 E = 1e-6, so |Theta| gamma0 E = 1e+294
+    "theta-huge": (
+        lambda: bar(nitsche_theta=1e300),
+        "nitsche_theta=1e+300: |Theta| gamma0 E = 1e+294 is above 100",
+    ),
+    "theta-string": (lambda: bar(nitsche_theta="1"), "nitsche_theta='1': the Nitsche variant"),
+    "gamma0-string": (lambda: bar(gamma0="1e-6"), "gamma0='1e-6': the Nitsche parameter must be"),
+    "degree-string": (lambda: bar(degree="2"), "degree='2': the degree must be 1 or 2"),
+    "degree-float": (lambda: bar(degree=1.5), "degree=1.5: the degree must be 1 or 2"),
+    "quadrature-huge": (lambda: ring(quadrature_degree=1000), "quadrature_degree=1000"),
+    "friction-string": (lambda: ring(friction="0.2"), "friction='0.2': the friction coefficient"),
     "friction-negative": (lambda: ring(friction=-0.2), "friction=-0.2"),
     "method-unknown": (lambda: bar(method="lagrange"), "method='lagrange'"),
     "mass-unknown": (lambda: bar(mass="heavy"), "mass='heavy'"),
@@ -71,6 +90,16 @@ API = {
     "lumped-p2": (lambda: bar(degree=2, mass="lumped"), "mass='lumped'"),
     "mixed-with-friction": (lambda: ring(method="mixed", friction=0.1), "friction=0.1"),
     "E-inf": (lambda: Material(E=math.inf, nu=0.3), "E=inf"),
+    "E-string": (lambda: Material(E="1000", nu=0.3), "E='1000': Young's modulus must be a number"),
+    "E-bool": (lambda: Material(E=True, nu=0.3), "E=True: Young's modulus must be a number"),
+    "E-huge": (lambda: Material(E=1e300, nu=0.3), "E=1e+300: Young's modulus must be at most"),
+    "nu-string": (lambda: Material(E=1.0, nu="0.3"), "nu='0.3': Poisson's ratio must be a number"),
+    "rho-huge": (lambda: Material(E=1.0, nu=0.3, rho=1e300), "rho=1e+300: the density"),
+    "rho-tiny": (lambda: Material(E=1.0, nu=0.3, rho=1e-300), "rho=1e-300: the density"),
+    "lame-bulk-negative": (
+        lambda: Material.from_lame(-0.9, 1.0),
+        "lmbda=-0.9: the bulk modulus lmbda + 2 mu / 3 must be positive",
+    ),
     "E-negative": (lambda: Material(E=-1.0, nu=0.3), "E=-1.0"),
     "nu-half": (lambda: Material(E=1.0, nu=0.5), "nu=0.5"),
     "rho-nan": (lambda: Material(E=1.0, nu=0.3, rho=math.nan), "rho=nan"),
@@ -79,10 +108,39 @@ API = {
     "newmark-beta": (lambda: make_scheme("newmark", beta=0.7), "beta=0.7"),
     "newmark-gamma": (lambda: make_scheme("newmark", gamma=-0.1), "gamma=-0.1"),
     "scheme-unknown": (lambda: make_scheme("leapfrog"), "scheme='leapfrog'"),
+    "scheme-not-a-name": (lambda: make_scheme(["hybrid"]), "scheme=['hybrid']: unknown scheme"),
+    "theta-scheme-string": (lambda: make_scheme("theta", theta="0.5"), "theta='0.5'"),
+    "output-every-bool": (lambda: OutputParameters(output_every=True), "output_every=True"),
     "output-negative": (lambda: OutputParameters(output_every=-1), "output_every=-1"),
     "checkpoint-float": (lambda: OutputParameters(checkpoint_every=0.5), "checkpoint_every=0.5"),
-    "obstacle-normal-zero": (lambda: PlaneObstacle([0.0], [0.0]), "[0.0]"),
-    "obstacle-point-nan": (lambda: PlaneObstacle([math.nan], [1.0]), "[nan]"),
+    "obstacle-normal-zero": (lambda: PlaneObstacle([0.0], [0.0]), "normal=[0.0]: the plane's"),
+    "obstacle-point-nan": (lambda: PlaneObstacle([math.nan], [1.0]), "point=[nan]: the plane's"),
+    "obstacle-point-string": (
+        lambda: PlaneObstacle(["a", 0.0], [0.0, 1.0]),
+        "point=['a', 0.0]: the plane's point must be 1 to 3 numbers",
+    ),
+    "obstacle-point-matrix": (
+        lambda: PlaneObstacle([[0.0, 0.0]], [0.0, 1.0]),
+        "point=[[0.0, 0.0]]: the plane's point must be 1 to 3 numbers",
+    ),
+    "obstacle-point-huge": (
+        lambda: PlaneObstacle([0.0, 1e300], [0.0, 1.0]),
+        "point=[0.0, 1e+300]: the plane's point must have coordinates of magnitude at most",
+    ),
+    "obstacle-normal-other-dimension": (
+        lambda: PlaneObstacle([0.0, 0.0], [0.0, 0.0, 1.0]),
+        "normal=[0.0, 0.0, 1.0]: the normal must have as many coordinates as the point",
+    ),
+    "sphere-radius-string": (
+        lambda: SphereObstacle([0.0, 0.0], "5"),
+        "radius='5': the radius must be a number",
+    ),
+    "sphere-radius-zero": (lambda: SphereObstacle([0.0, 0.0], 0.0), "radius=0.0: the radius"),
+    "sphere-side-unknown": (lambda: SphereObstacle([0.0, 0.0], 1.0, "above"), "side='above'"),
+    "cylinder-axis-zero": (
+        lambda: CylinderObstacle([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 1.0),
+        "axis=[0.0, 0.0, 0.0]: the cylinder's axis must have a non-zero length",
+    ),
     "obstacle-wrong-dimension": (
         lambda: ring().add_obstacle(PlaneObstacle([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 1),
         "3 coordinates, the mesh has 2",
@@ -129,6 +187,14 @@ API = {
         "max_step_cuts=-1",
     ),
     "max-step-cuts-float": (lambda: TimeStepping(0.1, 1.0, 1.5), "max_step_cuts=1.5"),
+    "reuse-jacobian-string": (
+        lambda: Simulation(bar(), HybridScheme(), dt=0.1, t_end=1.0, reuse_jacobian="no"),
+        "reuse_jacobian='no': must be True or False",
+    ),
+    "preconditioner-lag-negative": (
+        lambda: Simulation(bar(), HybridScheme(), dt=0.1, t_end=1.0, preconditioner_lag=-1),
+        "preconditioner_lag=-1: the preconditioner's lag must be an integer >= 0",
+    ),
     "gamma0-scaling-unknown": (lambda: bar(gamma0_scaling="stress"), "gamma0_scaling='stress'"),
     "gamma0-E-too-large": (lambda: bar(gamma0=1e3), "gamma0 * E = 1e+03"),
     "mesh-file-is-a-folder": (lambda: load_mesh(REPO), "is a folder, not a mesh file"),
@@ -178,7 +244,44 @@ def facet_tag(keys: str) -> dict:
 
 
 TOML = {
-    "E-inf": ({"E = 1000.0": "E = inf"}, "[material] E = inf: must be finite"),
+    "E-inf": ({"E = 1000.0": "E = inf"}, "[material] E = inf: Young's modulus must be finite"),
+    "E-string": ({"E = 1000.0": 'E = "1000"'}, "[material] E must be a number, got '1000'"),
+    "E-huge": ({"E = 1000.0": "E = 1e300"}, "[material] E = 1e+300: Young's modulus must be at"),
+    "lame-bulk-negative": (
+        {"E = 1000.0\nnu = 0.3": "lmbda = -900.0\nmu = 1000.0"},
+        "[material] lmbda = -900.0: the bulk modulus lmbda + 2 mu / 3 must be positive",
+    ),
+    # the ring: gamma0 E = 1e-3
+    "theta-huge": (
+        {"theta = 1.0": "theta = 1e300"},
+        "[nitsche] theta = 1e+300: |Theta| gamma0 E = 1e+297 is above 100",
+    ),
+    "theta-large": ({"theta = 1.0": "theta = -2e5"}, "[nitsche] theta = -200000.0: |Theta|"),
+    "dt-huge": (
+        {"dt = 0.005": "dt = 1e200", "t_end = 1.0": "t_end = 1e201"},
+        "[scheme] dt = 1e+200: the time step must be at most 1e+100",
+    ),
+    "load-huge": (
+        {"value = [0.0, -1.0]": "value = [0.0, -1e300]"},
+        "[body_force] value = [0.0, -1e+300]: must be finite (no nan or inf), of magnitude at most",
+    ),
+    "obstacle-point-huge": (
+        {"point = [0.0, 0.0]": "point = [0.0, 1e300]"},
+        "[[obstacle]] #1 point = [0.0, 1e+300]: must be at most 1e+100 in magnitude",
+    ),
+    "quadrature-huge": (
+        {"degree = 1": "degree = 1\nquadrature_degree = 1000"},
+        "[mesh] quadrature_degree = 1000: the quadrature degree must be an integer from 0 to 30",
+    ),
+    "generator-too-many-cells": (
+        {'file = "ring_2d.msh"': 'generator = "block"\nnx = 100000\nny = 100000'},
+        "[mesh] generator = 'block': width = 2.0, height = 1.0, nx = 100000, ny = 100000 make "
+        "2e+10 cells, more than 5e+07",
+    ),
+    "mesh-gdim-4": (
+        {'file = "ring_2d.msh"': 'file = "ring_2d.msh"\ngdim = 4'},
+        "[mesh] gdim = 4: must be 1, 2 or 3",
+    ),  # fmt: skip
     "E-and-lame": ({"rho = 1.0": "rho = 1.0\nlmbda = 3.0"}, "gives E and nu with lmbda"),
     "petsc-subtable": (
         {"[output]": "[petsc.snes]\nrtol = 1e-8\n\n[output]"},
@@ -188,9 +291,17 @@ TOML = {
         {"t_end = 1.0": "t_end = 1.0\ntheta = 0.5"},
         "[scheme] theta = 0.5 is not a parameter of the 'hybrid' scheme",
     ),
-    "obstacle-3d-point": (
+    "obstacle-3d-point-2d-normal": (
         {"point = [0.0, 0.0]": "point = [0.0, 0.0, 0.0]"},
-        "[[obstacle]] #1 obstacle point [0.0, 0.0, 0.0]",
+        "[[obstacle]] #1 normal = [0.0, 1.0]: the normal must have as many coordinates as the "
+        "point [0.0, 0.0, 0.0]",
+    ),
+    "obstacle-3d-point": (
+        {
+            "point = [0.0, 0.0]": "point = [0.0, 0.0, 0.0]",
+            "normal = [0.0, 1.0]": "normal = [0, 1, 0]",
+        },
+        "[[obstacle]] #1 point = [0.0, 0.0, 0.0]: has 3 components, the mesh is 2D",
     ),
     "nan-velocity": (
         {"velocity = [0.0, -1.0]": "velocity = [nan, -1.0]"},
@@ -201,8 +312,8 @@ TOML = {
         "[initial] initial displacement: the body starts 0.4 inside an obstacle",
     ),
     "too-many-steps": (
-        {"dt = 0.005": "dt = 1e-300", "t_end = 1.0": "t_end = 1e300"},
-        "[scheme] t_end = 1e+300",
+        {"dt = 0.005": "dt = 1e-50", "t_end = 1.0": "t_end = 1e50"},
+        "[scheme] t_end = 1e+50: t_end / dt = 1e+100 steps, more than 1e+07",
     ),
     "gamma0-zero": ({"gamma0 = 1e-6": "gamma0 = 0.0"}, "[nitsche] gamma0 = 0.0"),
     "degree-3": ({"degree = 1": "degree = 3"}, "[mesh] degree = 3"),
@@ -219,7 +330,7 @@ TOML = {
     "unknown-key": ({"degree = 1": "degree = 1\nelements = 2"}, "[mesh] unknown key 'elements'"),
     "nu-half": (
         {"nu = 0.3": "nu = 0.5"},
-        "[material] Poisson's ratio nu must lie in (-1, 1/2), got nu=0.5",
+        "[material] nu = 0.5: Poisson's ratio must lie in (-1, 1/2)",
     ),
     "scheme-unknown": ({'name = "hybrid"': 'name = "leapfrog"'}, "[scheme] name = 'leapfrog'"),
     "pair-one-tag": (
@@ -295,7 +406,7 @@ TOML = {
     ),
     "circle-radius-negative": (
         curved("circle", "center = [0.0, -5.0]\nradius = -1.0"),
-        "[[obstacle]] #1 radius = -1.0: must be positive",
+        "[[obstacle]] #1 radius = -1.0: the radius must be positive",
     ),
     "circle-without-radius": (
         curved("circle", "center = [0.0, -5.0]"),
@@ -311,7 +422,7 @@ TOML = {
     ),
     "circle-center-3d": (
         curved("circle", "center = [0.0, -5.0, 0.0]\nradius = 5.0"),
-        "[[obstacle]] #1 the sphere's centre [0.0, -5.0, 0.0] has 3 coordinates, the mesh has 2",
+        "[[obstacle]] #1 center = [0.0, -5.0, 0.0]: has 3 components, the mesh is 2D",
     ),
     # values in time and in space
     "body-force-3d": (
@@ -527,7 +638,12 @@ def test_cli_refuses_bad_flags(tmp_path):
     config = ring_config(str(tmp_path), t_end=1.0)
     a_file = tmp_path / "a_file"
     a_file.write_text("")
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(bytes(range(256)))
     cases = [
+        (["run", str(binary)], f"{binary}: not a TOML file: not UTF-8 text (byte 0x80 at offset"),
+        (["run", MESH], f"{MESH}: not valid TOML"),
+        (["run", "/dev/null"], "/dev/null: the configuration is not a regular file"),
         (["run", config, "--checkpoint-every", "-1"], "--checkpoint-every -1"),
         (["run", config, "--out", str(a_file)], "is a file, not a folder"),
         (["run", str(tmp_path / "missing.toml")], "configuration file does not exist"),
@@ -545,6 +661,15 @@ def test_cli_refuses_bad_flags(tmp_path):
 # -- the demos' flags --------------------------------------------------------------------
 
 FLAGS = {
+    "bar-nitsche-theta-huge": (
+        ["demos/bar_1d.py", "--nitsche-theta", "1e300"],
+        "--nitsche-theta 1e+300: |Theta| gamma0 E = 1e+294 is above 100",
+    ),
+    "ring-dt-huge": (["demos/ring_2d.py", "--dt", "1e200"], "--dt 1e+200: the time step must"),
+    "block-E-huge": (
+        ["demos/friction_block_2d.py", "--E", "1e300"],
+        "--E 1e+300: Young's modulus must be at most",
+    ),
     "disk-mesh-size-tiny": (["demos/disk_2d.py", "--mesh-size", "1e-6"], "would make about"),
     "disk-t-end-below-dt": (["demos/disk_2d.py", "--t-end", "0.05"], "--t-end 0.05"),
     "disk-mu-negative": (["demos/disk_2d.py", "--mu", "-1"], "--mu -1"),
@@ -586,5 +711,5 @@ def test_refusal_under_mpi_is_one_line(tmp_path):
         pytest.skip("no mpirun")
     config = ring_config(str(tmp_path), {"nu = 0.3": "nu = 0.5"}, t_end=1.0)
     result = run("-m", "nitsche_dolfinx", "run", config, "--out", str(tmp_path / "o"), ranks=2)
-    assert_one_line_error(result, "got nu=0.5")
+    assert_one_line_error(result, "[material] nu = 0.5")
     assert result.stderr.count("nitsche-dolfinx: error:") == 1

@@ -10,13 +10,9 @@ import numpy as np
 import pytest
 from runs import ring_config
 
+from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cli import main as cli
-from nitsche_dolfinx.config import (
-    build_simulation,
-    history_columns,
-    load_config,
-    output_parameters,
-)
+from nitsche_dolfinx.config import history_columns, load_config, output_parameters
 from nitsche_dolfinx.schema import FACET_SELECTORS, SCHEMA, describe
 from nitsche_dolfinx.valueforms import PiecewiseLinear, PolynomialField, Ramp, Sine
 

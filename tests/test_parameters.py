@@ -1,12 +1,26 @@
-"""The parameter objects (one check per value, named per entry point) and the history."""
+"""The parameter objects (one check per value, named per entry point), the table of their
+names in the API, TOML and flags, the registries that own their keys, and the history."""
 
 import argparse
+import inspect
+import os
+import re
 
 import numpy as np
 import pytest
+from runs import REPO
 
-from nitsche_dolfinx.arguments import add_method_arguments, method_parameters
+from nitsche_dolfinx.arguments import (
+    add_method_arguments,
+    add_run_arguments,
+    add_terminal_arguments,
+    method_parameters,
+)
+from nitsche_dolfinx.config import reported_at
+from nitsche_dolfinx.errors import under_its_flag
 from nitsche_dolfinx.history import History
+from nitsche_dolfinx.obstacles import OBSTACLES
+from nitsche_dolfinx.parameter_table import OWNERS, PARAMETERS, by_name, markdown
 from nitsche_dolfinx.parameters import (
     Discretisation,
     NitscheParameters,
@@ -14,6 +28,7 @@ from nitsche_dolfinx.parameters import (
     ParameterError,
     TimeStepping,
 )
+from nitsche_dolfinx.schema import SCHEMA
 from nitsche_dolfinx.schemes import SCHEMES, make_scheme
 
 
@@ -66,6 +81,98 @@ def test_demo_flags_become_the_same_objects():
     assert parsed.nitsche == NitscheParameters(gamma0=1e-3)
     assert parsed.discretisation == Discretisation(degree=2)
     assert parsed.scheme.describe() == "theta(theta=0.5)"
+
+
+def test_demo_flags_keep_their_names_and_defaults():
+    """The flags of docs/method.md section 6 (SPEC), made from the table: their defaults and
+    types as before the table (a demo's own defaults where it gives them)."""
+    parser = argparse.ArgumentParser()
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0, beta=0.3)
+    add_run_arguments(parser)
+    add_terminal_arguments(parser)
+    args = vars(parser.parse_args([]))
+    assert args == {
+        "scheme": "hybrid", "theta": 1.0, "beta": 0.3, "gamma": 0.5, "nitsche_theta": 1.0,
+        "gamma0": 1e-6, "gamma0_scaling": "absolute", "degree": 1, "dt": 0.015, "t_end": 6.0,
+        "max_step_cuts": 5, "checkpoint_every": 0, "restart": False, "output_every": 10,
+        "quiet": False,
+    }  # fmt: skip
+    parsed = parser.parse_args(["--degree", "2", "--dt", "0.5", "--scheme", "newmark"])
+    assert (parsed.degree, parsed.dt, parsed.scheme) == (2, 0.5, "newmark")
+    with pytest.raises(SystemExit):
+        parser.parse_args(["--scheme", "leapfrog"])
+
+
+def test_table_names_every_keyword_of_the_api():
+    """Every keyword of ContactProblem, Simulation and its run that is a value (not the
+    mesh, the material, a scheme object or a callback) is in the table, under its owner."""
+    objects = {"mesh", "facet_tags", "material", "problem", "self", "callback"}
+    for owner in ("ContactProblem", "Simulation", "Simulation.run"):
+        keywords = set(inspect.signature(OWNERS[owner]).parameters) - objects
+        listed = {p.name for p in PARAMETERS if p.owner == owner}
+        assert keywords == listed, owner
+    assert len({p.name for p in PARAMETERS}) == len(PARAMETERS)
+    assert len({p.flag for p in PARAMETERS if p.flag}) == len([p for p in PARAMETERS if p.flag])
+
+
+def test_table_is_the_schema_of_its_tables():
+    """[scheme], [nitsche], [solver], [material] and [output] hold the table's keys, with
+    its defaults (the TOML keys a demo's TOML file sets)."""
+    for parameter in PARAMETERS:
+        if parameter.toml_key is None:
+            continue
+        assert SCHEMA[parameter.table].keys[parameter.toml_key] is parameter.key
+    for table in ("scheme", "nitsche", "solver", "material", "output"):
+        assert set(SCHEMA[table].keys) == {p.toml_key for p in PARAMETERS if p.table == table}
+
+
+def test_registries_own_their_keys():
+    """A scheme's keys are its constructor's parameters with its defaults (and those of
+    make_scheme); an obstacle's keys are its class's keyword arguments."""
+    defaults = inspect.signature(make_scheme).parameters
+    for cls in SCHEMES.values():
+        signature = inspect.signature(cls).parameters
+        assert set(cls.parameters) == set(signature)
+        for key, spec in cls.parameters.items():
+            assert spec.default == signature[key].default == defaults[key].default
+    for name, obstacle in OBSTACLES.items():
+        signature = inspect.signature(obstacle.make).parameters
+        assert set(obstacle.keys) == set(signature), name
+        for key, spec in obstacle.keys.items():
+            assert spec.required == (signature[key].default is inspect.Parameter.empty)
+            assert SCHEMA["obstacle"].keys[key].kind == spec.kind
+
+
+def test_docs_parameters_is_up_to_date():
+    """docs/parameters.md is what `nitsche-dolfinx parameters` prints (regenerate it with
+    `nitsche-dolfinx parameters > docs/parameters.md`)."""
+    with open(os.path.join(REPO, "docs", "parameters.md")) as f:
+        assert f.read() == markdown()
+
+
+@pytest.mark.parametrize(
+    "name, value, flag, toml",
+    [
+        ("friction", -1.0, "--mu -1", "[nitsche] friction = -1.0"),
+        ("nitsche_theta", 1e300, "--nitsche-theta 1e+300", "[nitsche] theta = 1e+300"),
+        ("output_every", -2, "--output-every -2", "[output] every = -2"),
+        ("nx", 0, "--nx 0", "[mesh] nx = 0"),  # a demo's own flag: its destination
+        ("mu", 0.0, None, "[material] mu = 0.0"),  # the shear modulus, not --mu
+    ],
+)
+def test_errors_are_named_by_the_flag_or_the_key_that_set_them(name, value, flag, toml):
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--mu", type=float)
+    parser.add_argument("--nitsche-theta", type=float)
+    parser.add_argument("--output-every", type=int)
+    parser.add_argument("--nx", type=int)
+    error = ParameterError(name, value, "bad")
+    named = under_its_flag(error, parser)
+    assert str(named) == (f"{flag}: bad" if flag else str(error))
+    where = "[mesh]" if by_name(name) is None else "[scheme]"
+    with pytest.raises(ValueError, match="^" + re.escape(f"config: {toml}: bad") + "$"):
+        with reported_at(where, "config"):
+            raise error
 
 
 def test_history_columns_rows_and_summary():

@@ -97,14 +97,14 @@ def test_restart_without_checkpoint_is_named(tmp_path):
 @pytest.mark.parametrize(
     "replace, named",
     [
-        ({"rho = 1.0": "rho = -1.0"}, "density rho must be positive and finite, got rho=-1.0"),
-        ({"nu = 0.3": "nu = 0.5"}, "Poisson's ratio nu must lie in (-1, 1/2), got nu=0.5"),
-        ({"nu = 0.3": "nu = -1.2"}, "got nu=-1.2"),
+        ({"rho = 1.0": "rho = -1.0"}, "[material] rho = -1.0: the density must be positive"),
+        ({"nu = 0.3": "nu = 0.5"}, "[material] nu = 0.5: Poisson's ratio must lie in (-1, 1/2)"),
+        ({"nu = 0.3": "nu = -1.2"}, "[material] nu = -1.2"),
         ({'name = "hybrid"': 'name = "leapfrog"'}, "[scheme] name = 'leapfrog': unknown scheme"),
         ({"gamma0 = 1e-6": "gamma0 = -1e-6"}, "[nitsche] gamma0 = -1e-06: the Nitsche"),
         ({"dt = 0.005": "dt = 0.5"}, "[scheme] t_end = 0.05: the final time"),
         ({"tag = 1": "tag = 42"}, "facet tag 42 is not in the mesh"),
-        ({"normal = [0.0, 1.0]": "normal = [0.0, 0.0]"}, "non-zero length, got [0.0, 0.0]"),
+        ({"normal = [0.0, 1.0]": "normal = [0.0, 0.0]"}, "normal = [0.0, 0.0]: the plane's normal"),
         ({'"ring_2d.msh"': '"missing.msh"'}, "missing.msh' does not exist"),
     ],
     ids=[
@@ -190,7 +190,7 @@ ONE_RANK_SCRIPT = textwrap.dedent(
     """
     import sys
     from mpi4py import MPI
-    from nitsche_dolfinx.arguments import one_line_errors
+    from nitsche_dolfinx.errors import one_line_errors
 
     comm = MPI.COMM_WORLD
     with one_line_errors("one-rank", comm, grace=float(sys.argv[2])):

@@ -210,7 +210,8 @@ def _configuration(tmp_path, extra=""):
 
 
 def test_configuration_sets_up_a_contact_pair(tmp_path):
-    from nitsche_dolfinx.config import build_simulation, load_config
+    from nitsche_dolfinx.builder import build_simulation
+    from nitsche_dolfinx.config import load_config
 
     simulation = build_simulation(load_config(_configuration(tmp_path)), progress=False)
     assert len(simulation.problem.pairs) == 2
@@ -229,7 +230,8 @@ def test_configuration_sets_up_a_contact_pair(tmp_path):
     ],
 )
 def test_configuration_refuses_a_bad_pair(tmp_path, extra, named):
-    from nitsche_dolfinx.config import ConfigError, build_simulation, load_config
+    from nitsche_dolfinx.builder import build_simulation
+    from nitsche_dolfinx.config import ConfigError, load_config
 
     with pytest.raises(ConfigError) as caught:
         build_simulation(load_config(_configuration(tmp_path, extra)), progress=False)

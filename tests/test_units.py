@@ -85,7 +85,8 @@ def test_configuration_takes_gamma0_without_units(tmp_path):
     gamma0 = 1e-6 at E = 1000, through the impact; ``[scheme] max_step_cuts`` is read."""
     from runs import ring_config
 
-    from nitsche_dolfinx.config import build_simulation, load_config
+    from nitsche_dolfinx.builder import build_simulation
+    from nitsche_dolfinx.config import load_config
 
     ground = {"point = [0.0, 0.0]": "point = [0.0, 0.0995]"}  # contact at once
     dimensionless = {
