@@ -13,7 +13,8 @@ from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from nitsche_dolfinx import compat, shapes
-from nitsche_dolfinx.meshes import contact_bisection, load_mesh
+from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.partition import contact_bisection
 
 RADIUS = 20.0
 
