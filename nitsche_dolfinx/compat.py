@@ -58,6 +58,7 @@ __all__ = [
     "petsc_vector",
     "set_bc",
     "set_divergence_tolerance",
+    "sigint_kept",
     "start_gmsh",
     "trapezoid",
     "vtk_mesh",
@@ -451,7 +452,8 @@ def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
 
     module = getattr(dolfinx.io, "gmsh", None)
     if module is None or not hasattr(module, "model_to_mesh"):
-        module = _import_gmshio()
+        with sigint_kept():
+            module = _import_gmshio()
     if partitioner is None:
         result = module.model_to_mesh(model, comm, rank, gdim=gdim)
     elif "partitioner" in inspect.signature(module.model_to_mesh).parameters:
@@ -485,17 +487,35 @@ GMSH_CELL_TYPES = {
 
 def start_gmsh(gmsh) -> None:
     """Initialise gmsh without its terminal output and without reading the user's gmsh
-    configuration files (the meshes are the same on every machine).
-
-    gmsh from 4.9 sets SIGINT to its default action on initialisation unless told not to
-    (``interruptible``), and 4.13 does not restore it on finalisation: the run's own
-    handler (:mod:`nitsche_dolfinx.signals`) would be lost. gmsh 4.8 has no such keyword.
-    """
+    configuration files (the meshes are the same on every machine); gmsh from 4.9 is
+    told to leave SIGINT alone (``interruptible``, see :func:`sigint_kept`)."""
     if "interruptible" in inspect.signature(gmsh.initialize).parameters:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
     else:
         gmsh.initialize(readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
+
+
+@contextlib.contextmanager
+def sigint_kept():
+    """Put back, after the block, the SIGINT handler of its start (in the main thread).
+
+    gmsh takes SIGINT: 4.8 sets it to the default action when it is imported (as
+    dolfinx's ``gmshio`` does) and puts back the handler of that time when finalised;
+    4.9 on set it when initialised, and 4.13 never puts it back. Ctrl-C would then kill
+    Python instead of raising KeyboardInterrupt, and the run's own handler
+    (:mod:`nitsche_dolfinx.signals`) could be lost.
+    """
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    handler = signal.getsignal(signal.SIGINT) if main else None
+    try:
+        yield
+    finally:
+        if main and handler is not None:
+            signal.signal(signal.SIGINT, handler)
 
 
 def cell_partitioner(owners, num_vertices: int):

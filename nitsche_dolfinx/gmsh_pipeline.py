@@ -31,19 +31,21 @@ __all__ = ["ModelFacts", "check_file", "distribute", "from_root", "gmsh_session"
 
 @contextlib.contextmanager
 def gmsh_session():
-    """gmsh, initialised quietly for the ``with`` block and finalised after it (the one
-    way the package starts gmsh: :func:`nitsche_dolfinx.compat.start_gmsh`).
+    """gmsh, initialised quietly for the ``with`` block and finalised after it, SIGINT's
+    handler kept: the one way the package starts gmsh
+    (:func:`~nitsche_dolfinx.compat.start_gmsh`, :func:`~nitsche_dolfinx.compat.sigint_kept`).
 
     Yields:
         The ``gmsh`` module.
     """
-    import gmsh  # an optional dependency, needed by the rank that builds a model
+    with compat.sigint_kept():
+        import gmsh  # an optional dependency, needed by the rank that builds a model
 
-    compat.start_gmsh(gmsh)
-    try:
-        yield gmsh
-    finally:
-        gmsh.finalize()
+        compat.start_gmsh(gmsh)
+        try:
+            yield gmsh
+        finally:
+            gmsh.finalize()
 
 
 def from_root(comm, work: Callable[[], object]):
@@ -60,7 +62,9 @@ def from_root(comm, work: Callable[[], object]):
         except Exception as caught:  # re-raised on every rank below
             error = caught
     if comm.size > 1:
-        result, error = comm.bcast((result, _portable(error)), root=0)
+        shared = comm.bcast((result, _portable(error)), root=0)
+        if comm.rank != 0:  # rank 0 keeps its own error, with its traceback
+            result, error = shared
     if error is not None:
         raise error
     return result
