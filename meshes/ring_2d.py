@@ -61,7 +61,7 @@ def build_ring_model(mesh_size: float = 0.12, order: int = 1) -> None:
         raise ValueError(f"mesh size must lie in (0, {OUTER_RADIUS:g}], got {mesh_size!r}")
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
     gmsh.model.add("ring_2d")
     geo = gmsh.model.geo

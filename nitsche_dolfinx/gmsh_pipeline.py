@@ -26,7 +26,15 @@ from mpi4py import MPI
 from . import compat
 from .partition import contact_bisection
 
-__all__ = ["ModelFacts", "check_file", "distribute", "from_root", "gmsh_session", "read_msh"]
+__all__ = [
+    "ModelFacts",
+    "check_file",
+    "distribute",
+    "from_root",
+    "gmsh_session",
+    "inspect_model",
+    "read_msh",
+]
 
 
 @contextlib.contextmanager
@@ -93,8 +101,12 @@ class ModelFacts:
     num_vertices: int
     #: The highest coordinate axis on which a node is not at 0, plus one (3: some z != 0).
     span: int
-    #: Whether physical groups of dimension tdim - 1 hold elements (the facet tags).
-    has_facet_tags: bool
+    #: The physical groups of dimension tdim - 1 that hold elements (the facet tags).
+    facet_groups: tuple[int, ...]
+
+    @property
+    def has_facet_tags(self) -> bool:
+        return len(self.facet_groups) > 0
 
 
 def distribute(
@@ -142,6 +154,12 @@ def distribute(
                 f"{what} has no physical groups on its boundary (of dimension "
                 f"{facts.tdim - 1}): the facet tags"
             )
+        missing = sorted(set(contact) - set(facts.facet_groups))
+        if missing:
+            raise ValueError(
+                f"{what} has no physical group {missing[0]} of dimension {facts.tdim - 1} "
+                "(a contact surface)"
+            )
         gdim = facts.tdim if gdim is None else gdim
         partitioner = None
         if comm.size > 1 and contact:
@@ -183,7 +201,7 @@ def inspect_model(model, what: str) -> ModelFacts:
             f"{what} has cells of type {found}: dolfinx reads one type of lines, "
             "triangles, quadrilaterals, tetrahedra or hexahedra, of order 1 or 2"
         )
-    facet_types = _element_types(model, grouped, tdim - 1) if tdim > 0 else []
+    facet_types = _element_types(model, grouped, tdim - 1)
     if len(facet_types) > 1:
         found = ", ".join(_type_name(model, t) for t in sorted(facet_types))
         raise ValueError(f"{what} has facets of several types in physical groups: {found}")
@@ -195,7 +213,9 @@ def inspect_model(model, what: str) -> ModelFacts:
         cells=compat.GMSH_CELL_TYPES[cell],
         num_vertices=int(model.mesh.getElementProperties(cell)[5]),
         span=int(np.nonzero(away)[0].max() + 1) if away.any() else 1,
-        has_facet_tags=bool(facet_types),
+        facet_groups=tuple(
+            int(g) for d, g in groups if d == tdim - 1 and _element_types(model, grouped, d, g)
+        ),
     )
 
 
@@ -203,8 +223,11 @@ def _has_elements(model, dim: int, tag: int) -> bool:
     return len(model.mesh.getElementTypes(dim, tag)) > 0
 
 
-def _element_types(model, grouped: set, dim: int) -> list[int]:
-    """The element types of the entities of dimension ``dim`` in physical groups."""
+def _element_types(model, grouped: set, dim: int, group: int | None = None) -> list[int]:
+    """The element types of the entities of dimension ``dim`` in physical groups (in the
+    physical group ``group`` alone if given)."""
+    if group is not None:
+        grouped = {(dim, int(e)) for e in model.getEntitiesForPhysicalGroup(dim, group)}
     types = set()
     for entity_dim, tag in grouped:
         if entity_dim == dim:
@@ -273,7 +296,7 @@ def read_msh(
     what = f"mesh file {path!r}"
 
     def merge():
-        import gmsh
+        import gmsh  # optional dependency: the rank that reads the file alone
 
         check_file(path)
         gmsh.model.add("nitsche_dolfinx_read")

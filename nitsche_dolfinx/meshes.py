@@ -157,8 +157,13 @@ def load_mesh(
     has_tags = from_root(
         comm, lambda: _check_xdmf(path, extension, mesh_name, facet_tags_name, facet_tags_required)
     )
+    return _read_xdmf(path, comm, gdim, mesh_name, facet_tags_name if has_tags else None)
+
+
+def _read_xdmf(path: str, comm, gdim, mesh_name: str, facet_tags_name: str | None):
+    """The mesh and facet tags of a checked XDMF file, whose cells fill its space."""
     try:
-        mesh, facet_tags = _load_xdmf(path, comm, mesh_name, facet_tags_name if has_tags else None)
+        mesh, facet_tags = _load_xdmf(path, comm, mesh_name, facet_tags_name)
     except Exception as error:  # HDF5 and dolfinx raise their own kinds, on every rank
         raise ValueError(f"mesh file {path!r} cannot be read: {error}") from error
     dim = mesh.geometry.dim

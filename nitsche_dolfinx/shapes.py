@@ -144,7 +144,7 @@ def build_ball_model(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
     check_body_mesh(mesh_size, order, radius)
     cx, cy, cz = (float(c) for c in center)
@@ -195,7 +195,7 @@ def build_disk_model(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
     check_body_mesh(mesh_size, order, radius, dim=2)
     gmsh.model.add("disk")

@@ -120,7 +120,7 @@ def two_bars_mesh(nx: int = 100, gap: float = 0.0, comm=MPI.COMM_WORLD):
         raise ValueError(f"the gap between the bars must be >= 0, got gap={gap!r}")
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         gmsh.model.add("bar")
         geo = gmsh.model.geo
@@ -165,7 +165,7 @@ def mirrored_bodies_mesh(
     make = build_ball_model if dim == 3 else build_disk_model
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         make(mesh_size=mesh_size, order=order, radius=radius, center=center)
         groups = {
@@ -296,7 +296,7 @@ def ball_on_slab_mesh(
         raise ValueError(f"slab {width!r} x {thickness!r} or gap {gap!r} out of range")
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         gmsh.model.add("ball on slab")
         _add_ball_and_slab(gmsh.model.occ, dim, radius, width, thickness, gap)

@@ -156,6 +156,13 @@ def test_gdim_other_than_the_cells_is_refused(mpi_tmp_path):
     _refused_everywhere(path, "holds 2D cells (triangles), not gdim=3", gdim=3)
 
 
+@pytest.mark.mpi
+def test_contact_tag_that_is_no_facet_group_is_refused(mpi_tmp_path):
+    path = _write(mpi_tmp_path, "square.msh", square())
+    message = "has no physical group 9 of dimension 1 (a contact surface)"
+    _refused_everywhere(path, message, contact_tags=[1, 9])
+
+
 def _xdmf_cases(folder: str) -> dict:
     """name -> (path, message): XDMF files of the square with one defect each."""
     mesh, tags = load_mesh(_write(folder, "square.msh", square()), comm=MPI.COMM_SELF)
