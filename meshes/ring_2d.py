@@ -17,10 +17,10 @@ The file is written in the msh 4.1 ASCII format, which dolfinx reads through
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
-import sys
+
+from nitsche_dolfinx.shapes import msh_command
 
 #: Tag of the ring's surface.
 RING_SURFACE = 1
@@ -50,11 +50,9 @@ def _circle(geo, centre: int, radius: float, mesh_size: float) -> list[int]:
     return [geo.addCircleArc(corners[i], centre, corners[(i + 1) % 4]) for i in range(4)]
 
 
-def generate(path: str, mesh_size: float = 0.12, order: int = 1) -> dict[str, int]:
-    """Mesh the ring with triangles of size ``mesh_size`` and geometric ``order``; write ``path``.
-
-    Returns:
-        The number of nodes and of triangles.
+def build_ring_model(mesh_size: float = 0.12, order: int = 1) -> None:
+    """Build and mesh the ring in the current gmsh model (gmsh started): triangles of size
+    ``mesh_size`` and geometric ``order``.
 
     Raises:
         ValueError: If ``mesh_size`` is not a positive number or ``order`` is not 1 or 2.
@@ -63,69 +61,42 @@ def generate(path: str, mesh_size: float = 0.12, order: int = 1) -> dict[str, in
         raise ValueError(f"mesh size must lie in (0, {OUTER_RADIUS:g}], got {mesh_size!r}")
     if order not in (1, 2):
         raise ValueError(f"order must be 1 or 2, got {order!r}")
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("ring_2d")
-        geo = gmsh.model.geo
-        centre = geo.addPoint(*CENTRE, 0.0, mesh_size)
-        outer = _circle(geo, centre, OUTER_RADIUS, mesh_size)
-        inner = _circle(geo, centre, INNER_RADIUS, mesh_size)
-        outer_loop = geo.addCurveLoop(outer)
-        inner_loop = geo.addCurveLoop(inner)
-        surface = geo.addPlaneSurface([outer_loop, inner_loop])
-        geo.synchronize()
+    gmsh.model.add("ring_2d")
+    geo = gmsh.model.geo
+    centre = geo.addPoint(*CENTRE, 0.0, mesh_size)
+    outer = _circle(geo, centre, OUTER_RADIUS, mesh_size)
+    inner = _circle(geo, centre, INNER_RADIUS, mesh_size)
+    outer_loop = geo.addCurveLoop(outer)
+    inner_loop = geo.addCurveLoop(inner)
+    surface = geo.addPlaneSurface([outer_loop, inner_loop])
+    geo.synchronize()
 
-        groups = [
-            (2, [surface], RING_SURFACE, "ring"),
-            (1, outer[:2], RING_CONTACT, "contact"),
-            (1, outer[2:], RING_OUTER_TOP, "outer_top"),
-            (1, inner, RING_INNER, "inner"),
-        ]
-        for dim, entities, tag, name in groups:
-            gmsh.model.addPhysicalGroup(dim, entities, tag)
-            gmsh.model.setPhysicalName(dim, tag, name)
-
-        gmsh.model.mesh.generate(2)
-        gmsh.model.mesh.setOrder(order)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        directory = os.path.dirname(os.path.abspath(path))
-        os.makedirs(directory, exist_ok=True)
-        try:
-            gmsh.write(str(path))
-        except Exception as error:  # gmsh raises a bare Exception
-            raise OSError(f"cannot write {path!r}: {error}") from None
-
-        triangle = gmsh.model.mesh.getElementType("Triangle", order)
-        triangles, nodes = gmsh.model.mesh.getElementsByType(triangle)
-        # the nodes of the triangles: the centre point of the arcs is not part of the mesh
-        return {"nodes": len(set(nodes.tolist())), "triangles": len(triangles)}
-    finally:
-        gmsh.finalize()
+    groups = [
+        (2, [surface], RING_SURFACE, "ring"),
+        (1, outer[:2], RING_CONTACT, "contact"),
+        (1, outer[2:], RING_OUTER_TOP, "outer_top"),
+        (1, inner, RING_INNER, "inner"),
+    ]
+    for dim, entities, tag, name in groups:
+        gmsh.model.addPhysicalGroup(dim, entities, tag)
+        gmsh.model.setPhysicalName(dim, tag, name)
+    gmsh.model.mesh.generate(2)
+    gmsh.model.mesh.setOrder(order)
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        description="Mesh the 2D elastic ring of demos/ring_2d.py with gmsh.",
+    """Parse the command line and write the mesh."""
+    msh_command(
+        argv,
+        build_ring_model,
+        "Mesh the 2D elastic ring of demos/ring_2d.py with gmsh.",
+        DEFAULT_OUT,
+        "triangles",
+        mesh_size=0.12,
+        order=1,
     )
-    parser.add_argument(
-        "--mesh-size", type=float, default=0.12, help="target triangle size (default: 0.12)"
-    )
-    parser.add_argument("--order", type=int, default=1, help="geometric order, 1 or 2 (default: 1)")
-    parser.add_argument(
-        "--out", default=DEFAULT_OUT, help="the .msh file to write (default: next to this script)"
-    )
-    args = parser.parse_args(argv)
-    try:
-        counts = generate(args.out, args.mesh_size, args.order)
-    except (ValueError, OSError) as error:
-        print(f"{parser.prog}: error: {error}", file=sys.stderr)
-        sys.exit(2)
-    triangles, nodes = counts["triangles"], counts["nodes"]
-    print(f"{args.out}: {triangles} triangles, {nodes} nodes, order {args.order}")
 
 
 if __name__ == "__main__":

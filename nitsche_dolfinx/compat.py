@@ -1,9 +1,19 @@
-"""Every dolfinx, UFL and numpy API difference between dolfinx 0.5.2 and 0.11, in one place.
+"""Every dolfinx, UFL, numpy and gmsh API difference between dolfinx 0.5.2 and 0.11, in one
+place.
 
 The rest of the package calls these shims and never looks at a version number.
 Each shim detects the feature it needs (``hasattr`` or ``try``/``except``) so
 that a dolfinx release in between, or a backport, takes the right branch by
 itself.
+
+Design constraints that dolfinx 0.5 imposes on the meshes:
+
+- A cell partitioner gives each cell its owner and the ranks that share one of its
+  vertices (0.5 finds shared vertices through ghost cells): :func:`cell_partitioner`.
+- ``model_to_mesh`` takes no partitioner (:func:`gmsh_model_to_mesh` passes it on) and
+  ``read_from_msh`` fails (the package merges a ``.msh`` file into a gmsh model itself).
+- Cells are lines, triangles, quadrilaterals, tetrahedra or hexahedra, of one type per
+  mesh: :data:`GMSH_CELL_TYPES`.
 """
 
 from __future__ import annotations
@@ -25,6 +35,7 @@ __all__ = [
     "add_matrix_entries",
     "apply_lifting",
     "cell_name",
+    "cell_partitioner",
     "cells_containing",
     "collapse",
     "create_matrix",
@@ -37,6 +48,7 @@ __all__ = [
     "element_degree",
     "geometry_degree",
     "geometry_dofmap",
+    "GMSH_CELL_TYPES",
     "gmsh_model_to_mesh",
     "interpolation_points",
     "mesh_keeping_cells",
@@ -44,9 +56,10 @@ __all__ = [
     "node_coordinates",
     "own_symbols",
     "petsc_vector",
-    "read_gmsh_file",
     "set_bc",
     "divergence_tolerance",
+    "sigint_kept",
+    "start_gmsh",
     "trapezoid",
     "vtk_mesh",
     "write_meshtags",
@@ -436,7 +449,8 @@ def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
 
     module = getattr(dolfinx.io, "gmsh", None)
     if module is None or not hasattr(module, "model_to_mesh"):
-        module = _import_gmshio()
+        with sigint_kept():
+            module = _import_gmshio()
     if partitioner is None:
         result = module.model_to_mesh(model, comm, rank, gdim=gdim)
     elif "partitioner" in inspect.signature(module.model_to_mesh).parameters:
@@ -457,31 +471,104 @@ def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
     return result[0], result[1], result[2]
 
 
-def read_gmsh_file(filename: str, comm, rank: int, gdim: int):
-    """Read a ``.msh`` file on rank ``rank`` into ``(mesh, cell_tags, facet_tags)`` on all ranks.
+#: The gmsh element types that every supported dolfinx reads as cells, with the names
+#: the messages give them: complete Lagrange lines, triangles, quadrilaterals, tetrahedra
+#: and hexahedra of order 1 and 2 (dolfinx 0.5 reads no prisms, pyramids, nor serendipity
+#: elements; the package's geometries are of order 1 or 2).
+GMSH_CELL_TYPES = {
+    1: "lines", 2: "triangles", 3: "quadrilaterals", 4: "tetrahedra", 5: "hexahedra",
+    8: "second-order lines", 9: "second-order triangles", 10: "second-order quadrilaterals",
+    11: "second-order tetrahedra", 12: "second-order hexahedra",
+}  # fmt: skip
 
-    dolfinx's own ``read_from_msh`` fails in 0.5.2 (it returns an undefined
-    name), so the file is merged into a gmsh model here on every version.
+
+def start_gmsh(gmsh) -> None:
+    """Initialise gmsh without its terminal output and without reading the user's gmsh
+    configuration files (the meshes are the same on every machine); gmsh from 4.9 is
+    told to leave SIGINT alone (``interruptible``, see :func:`sigint_kept`)."""
+    if "interruptible" in inspect.signature(gmsh.initialize).parameters:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    else:
+        gmsh.initialize(readConfigFiles=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+
+
+@contextlib.contextmanager
+def sigint_kept():
+    """Put back, after the block, the SIGINT handler of its start (in the main thread).
+
+    gmsh takes SIGINT: 4.8 sets it to the default action when it is imported (as
+    dolfinx's ``gmshio`` does) and puts back the handler of that time when finalised;
+    4.9 on set it when initialised, and 4.13 never puts it back. Ctrl-C would then kill
+    Python instead of raising KeyboardInterrupt, and the run's own handler
+    (:mod:`nitsche_dolfinx.signals`) could be lost.
     """
-    import gmsh
+    import signal
+    import threading
 
-    gmsh.initialize()
+    main = threading.current_thread() is threading.main_thread()
+    handler = signal.getsignal(signal.SIGINT) if main else None
     try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        error = None
-        if comm.rank == rank:
-            gmsh.model.add("nitsche_dolfinx_read")
-            try:
-                gmsh.merge(str(filename))
-            except Exception as exc:  # gmsh raises a bare Exception
-                error = str(exc) or type(exc).__name__
-        # a file that only rank ``rank`` reads fails on every rank, not just on that one
-        error = comm.bcast(error, root=rank)
-        if error is not None:
-            raise ValueError(error)
-        return gmsh_model_to_mesh(gmsh.model, comm, rank, gdim)
+        yield
     finally:
-        gmsh.finalize()
+        if main and handler is not None:
+            signal.signal(signal.SIGINT, handler)
+
+
+def cell_partitioner(owners, num_vertices: int):
+    """A cell partitioner for ``dolfinx.mesh.create_mesh`` (and :func:`gmsh_model_to_mesh`)
+    that sends each cell to the rank ``owners(vertices, parts)`` gives it (``vertices``:
+    the cells' vertices, shape (cells, num_vertices); ``parts``: the number of ranks).
+
+    dolfinx 0.5 calls it with ``(comm, parts, tdim, cells as an AdjacencyList, ghost
+    mode)`` and finds the vertices shared between ranks through ghost cells (dropped
+    afterwards with ``GhostMode.none``): each cell also goes to the other ranks that own a
+    cell with one of its vertices. dolfinx 0.9 on calls it with ``(comm, parts, cell
+    types, cells as a list of arrays, one per cell type)`` and wants the owner alone.
+    """
+    import dolfinx.cpp
+
+    def partition(comm, parts, *args):
+        cells = next(a for a in args if hasattr(a, "array") or _arrays(a))
+        legacy = hasattr(cells, "array")
+        if legacy:
+            cells = cells.array
+        else:
+            cells = np.concatenate([np.asarray(c).ravel() for c in cells])
+        vertices = np.asarray(cells, dtype=np.int64).reshape(-1, num_vertices)
+        ranks = np.asarray(owners(vertices, parts), dtype=np.int32)
+        if legacy:
+            return _with_sharing_ranks(vertices, ranks, parts)
+        offsets = np.arange(len(vertices) + 1, dtype=np.int32)
+        return dolfinx.cpp.graph.AdjacencyList_int32(ranks, offsets)
+
+    return partition
+
+
+def _arrays(value) -> bool:
+    """Whether ``value`` is a non-empty list of arrays."""
+    listed = isinstance(value, (list, tuple)) and len(value) > 0
+    return listed and all(hasattr(v, "shape") for v in value)
+
+
+def _with_sharing_ranks(vertices: np.ndarray, owners: np.ndarray, parts: int):
+    """The destinations of cells given to ``owners`` for dolfinx 0.5 (see
+    :func:`cell_partitioner`): each cell's owner, then the other ranks owning a cell that
+    has one of its vertices."""
+    import dolfinx.cpp
+
+    holds = np.zeros((vertices.max(initial=-1) + 1, parts), dtype=bool)
+    holds[vertices, owners[:, None]] = True
+    sharing = holds[vertices].any(axis=1)  # (cells, parts)
+    sharing[np.arange(len(owners)), owners] = False
+    cells, ranks = np.nonzero(sharing)  # by cell, then by rank
+    others = np.bincount(cells, minlength=len(owners))
+    offsets = np.concatenate(([0], np.cumsum(1 + others))).astype(np.int32)
+    destinations = np.empty(offsets[-1], dtype=np.int32)
+    destinations[offsets[:-1]] = owners
+    first = np.concatenate(([0], np.cumsum(others)[:-1]))  # of each cell's, in ``cells``
+    destinations[offsets[cells] + 1 + np.arange(len(cells)) - first[cells]] = ranks
+    return dolfinx.cpp.graph.AdjacencyList_int32(destinations, offsets)
 
 
 def _import_gmshio():

@@ -21,7 +21,7 @@ from petsc4py import PETSc
 from . import compat
 from .assembly import Forms, with_facet_quadrature
 from .collective import any_rank
-from .meshes import facet_cells, facet_vertices
+from .facet_selectors import facet_cells, facet_vertices
 
 __all__ = ["ContactFacets", "FacetJacobian", "RESTRICTED_FROM"]
 

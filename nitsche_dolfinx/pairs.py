@@ -189,6 +189,11 @@ def _surface_nodes(V, facets: np.ndarray):
         points = shape @ x[geometry[cell]]
         for node, point in zip(dofmap[cell], points):
             coordinates[int(node)] = point
+    # an owned node may lie on facets of other ranks only (dolfinx finds it remotely):
+    # its coordinates from a cell of this rank that has it
+    missing = np.setdiff1d(nodes, np.fromiter(coordinates, dtype=nodes.dtype))
+    for cell, position in zip(*np.nonzero(np.isin(dofmap, missing))):
+        coordinates.setdefault(int(dofmap[cell, position]), shape[position] @ x[geometry[cell]])
     return nodes, np.array([coordinates[int(n)] for n in nodes]).reshape(-1, gdim)
 
 

@@ -8,19 +8,20 @@ the second-order mesh is curved.
 
 One code path builds the gmsh model (:func:`build_ball_model`,
 :func:`build_disk_model`); :func:`ball_mesh` and :func:`disk_mesh` turn it
-into a distributed dolfinx mesh, and :func:`write_msh` (used by
-``meshes/ball_3d.py`` and ``meshes/disk_2d.py``) writes it to a ``.msh`` file.
+into a distributed dolfinx mesh (:func:`nitsche_dolfinx.gmsh_pipeline.distribute`), and
+:func:`write_msh` (used by the scripts ``meshes/*.py``) writes it to a ``.msh`` file.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 from collections.abc import Callable, Sequence
 
 import numpy as np
 from mpi4py import MPI
+
+from .gmsh_pipeline import distribute, gmsh_session
 
 __all__ = [
     "BALL_CONTACT",
@@ -29,13 +30,17 @@ __all__ = [
     "DISK_CONTACT",
     "DISK_FREE",
     "DISK_SURFACE",
+    "add_ball_halves",
+    "add_disk_halves",
     "ball_mesh",
     "build_ball_model",
     "build_disk_model",
-    "disk_mesh",
-    "gmsh_session",
     "check_body_mesh",
+    "disk_mesh",
+    "generate",
+    "gmsh_session",
     "msh_command",
+    "set_mesh_size",
     "write_msh",
 ]
 
@@ -52,23 +57,6 @@ DISK_SURFACE = 1
 DISK_CONTACT = 1
 #: Facet tag of the upper half circle, y > centre y: the free boundary.
 DISK_FREE = 2
-
-
-@contextlib.contextmanager
-def gmsh_session():
-    """Initialise gmsh quietly for the ``with`` block and always finalise it after.
-
-    Yields:
-        The ``gmsh`` module.
-    """
-    import gmsh
-
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        yield gmsh
-    finally:
-        gmsh.finalize()
 
 
 #: The most cells a generated body may have: more is a mistake in mesh_size, not a mesh.
@@ -92,7 +80,7 @@ def check_body_mesh(mesh_size: float, order: int, radius: float, dim: int = 3) -
         raise ValueError(f"order must be 1 or 2, got {order!r}")
 
 
-def _set_sizes(gmsh, mesh_size: float) -> None:
+def set_mesh_size(gmsh, mesh_size: float) -> None:
     """Make ``mesh_size`` the only size control: points carry none, curvature is ignored."""
     gmsh.option.setNumber("Mesh.MeshSizeMax", mesh_size)
     gmsh.option.setNumber("Mesh.MeshSizeMin", 0.5 * mesh_size)
@@ -101,10 +89,36 @@ def _set_sizes(gmsh, mesh_size: float) -> None:
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
 
 
-def _mesh(gmsh, dim: int, order: int) -> None:
+def generate(gmsh, dim: int, order: int) -> None:
+    """Mesh the current model in ``dim`` dimensions with cells of geometric ``order``."""
     gmsh.model.mesh.generate(dim)
     if order > 1:
         gmsh.model.mesh.setOrder(order)
+
+
+def add_ball_halves(occ, center: Sequence[float], radius: float) -> None:
+    """A ball in the OCC kernel as its lower and upper halves, which share the equatorial
+    disk (not synchronised)."""
+    cx, cy, cz = center
+    lower = occ.addSphere(cx, cy, cz, radius, angle1=-math.pi / 2, angle2=0.0)
+    upper = occ.addSphere(cx, cy, cz, radius, angle1=0.0, angle2=math.pi / 2)
+    occ.fragment([(3, lower)], [(3, upper)])  # one shared equatorial disk
+
+
+def add_disk_halves(occ, center: Sequence[float], radius: float):
+    """A disk in the OCC kernel whose circle is made of a lower and an upper half, which
+    meet at y = ``center[1]`` (not synchronised).
+
+    Returns:
+        ``(surface, lower curves, upper curves)``: the OCC tags.
+    """
+    cx, cy = center
+    lower = occ.addCircle(cx, cy, 0.0, radius, angle1=math.pi, angle2=2 * math.pi)
+    upper = occ.addCircle(cx, cy, 0.0, radius, angle1=0.0, angle2=math.pi)
+    _, (lower_parts, upper_parts) = occ.fragment([(1, lower)], [(1, upper)])  # shared ends
+    loop = occ.addCurveLoop([tag for _, tag in lower_parts + upper_parts])
+    surface = occ.addPlaneSurface([loop])
+    return surface, [tag for _, tag in lower_parts], [tag for _, tag in upper_parts]
 
 
 def build_ball_model(
@@ -130,15 +144,13 @@ def build_ball_model(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
     check_body_mesh(mesh_size, order, radius)
     cx, cy, cz = (float(c) for c in center)
     gmsh.model.add("ball")
     occ = gmsh.model.occ
-    lower = occ.addSphere(cx, cy, cz, radius, angle1=-math.pi / 2, angle2=0.0)
-    upper = occ.addSphere(cx, cy, cz, radius, angle1=0.0, angle2=math.pi / 2)
-    occ.fragment([(3, lower)], [(3, upper)])  # one shared equatorial disk
+    add_ball_halves(occ, (cx, cy, cz), radius)
     occ.synchronize()
 
     contact, free = [], []
@@ -157,8 +169,8 @@ def build_ball_model(
             (2, free, BALL_FREE, "free"),
         ],
     )
-    _set_sizes(gmsh, mesh_size)
-    _mesh(gmsh, 3, order)
+    set_mesh_size(gmsh, mesh_size)
+    generate(gmsh, 3, order)
 
 
 def build_disk_model(
@@ -183,64 +195,29 @@ def build_disk_model(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    import gmsh
+    import gmsh  # optional dependency: the rank that builds the model alone
 
     check_body_mesh(mesh_size, order, radius, dim=2)
-    cx, cy = (float(c) for c in center)
     gmsh.model.add("disk")
     occ = gmsh.model.occ
-    lower = occ.addCircle(cx, cy, 0.0, radius, angle1=math.pi, angle2=2 * math.pi)
-    upper = occ.addCircle(cx, cy, 0.0, radius, angle1=0.0, angle2=math.pi)
-    _, (lower_parts, upper_parts) = occ.fragment([(1, lower)], [(1, upper)])  # shared ends
-    loop = occ.addCurveLoop([tag for _, tag in lower_parts + upper_parts])
-    surface = occ.addPlaneSurface([loop])
+    surface, lower, upper = add_disk_halves(occ, [float(c) for c in center], radius)
     occ.synchronize()
     _add_groups(
         gmsh,
         [
             (2, [surface], DISK_SURFACE, "disk"),
-            (1, [tag for _, tag in lower_parts], DISK_CONTACT, "contact"),
-            (1, [tag for _, tag in upper_parts], DISK_FREE, "free"),
+            (1, lower, DISK_CONTACT, "contact"),
+            (1, upper, DISK_FREE, "free"),
         ],
     )
-    _set_sizes(gmsh, mesh_size)
-    _mesh(gmsh, 2, order)
+    set_mesh_size(gmsh, mesh_size)
+    generate(gmsh, 2, order)
 
 
 def _add_groups(gmsh, groups) -> None:
     for dim, entities, tag, name in groups:
         gmsh.model.addPhysicalGroup(dim, entities, tag)
         gmsh.model.setPhysicalName(dim, tag, name)
-
-
-def _to_dolfinx(build: Callable[..., None], gdim: int, comm, contact: int, **kwargs):
-    """Build the model on rank 0 and distribute it over ``comm``, the facets tagged
-    ``contact`` spread over the ranks (:func:`~nitsche_dolfinx.meshes.contact_bisection`):
-    ``(mesh, facet_tags)``."""
-    from . import compat
-    from .meshes import contact_bisection
-
-    with gmsh_session() as gmsh:
-        error = None
-        if comm.rank == 0:
-            try:
-                build(**kwargs)
-            except Exception as caught:  # re-raised on every rank below
-                error = caught
-        error = comm.bcast(error, root=0)
-        if error is not None:
-            raise error
-        partitioner = None
-        if comm.size > 1:
-            x, nodes = np.zeros((0, 3)), np.zeros((0, 3))
-            if comm.rank == 0:  # the nodes by input index: gmsh's tags from 1
-                tags, coordinates, _ = gmsh.model.mesh.getNodes()
-                x = coordinates.reshape(-1, 3)[np.argsort(tags)]
-                nodes = gmsh.model.mesh.getNodesForPhysicalGroup(gdim - 1, contact)[1]
-                nodes = nodes.reshape(-1, 3)
-            partitioner = contact_bisection(x, nodes, gdim + 1)  # simplices
-        mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim, partitioner)
-    return mesh, facet_tags
 
 
 def ball_mesh(
@@ -254,7 +231,7 @@ def ball_mesh(
 
     Meshed on rank 0 by :func:`build_ball_model` and distributed over ``comm``, the
     contact boundary spread over the ranks
-    (:func:`~nitsche_dolfinx.meshes.contact_bisection`).
+    (:func:`~nitsche_dolfinx.partition.contact_bisection`).
     The defaults are the talk's ball (radius 20, centre (0, 0, 20), h about 8,
     a few hundred second-order tetrahedra).
 
@@ -272,16 +249,10 @@ def ball_mesh(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    return _to_dolfinx(
-        build_ball_model,
-        3,
-        comm,
-        BALL_CONTACT,
-        mesh_size=mesh_size,
-        order=order,
-        radius=radius,
-        center=center,
+    mesh, _, facet_tags = distribute(
+        lambda: build_ball_model(mesh_size, order, radius, center), comm, 3, [BALL_CONTACT]
     )
+    return mesh, facet_tags
 
 
 def disk_mesh(
@@ -295,7 +266,7 @@ def disk_mesh(
 
     Meshed on rank 0 by :func:`build_disk_model` and distributed over ``comm``, the
     contact boundary spread over the ranks
-    (:func:`~nitsche_dolfinx.meshes.contact_bisection`).
+    (:func:`~nitsche_dolfinx.partition.contact_bisection`).
 
     Args:
         mesh_size: Target edge length of the triangles.
@@ -311,16 +282,10 @@ def disk_mesh(
     Raises:
         ValueError: If ``mesh_size``, ``order`` or ``radius`` is out of range.
     """
-    return _to_dolfinx(
-        build_disk_model,
-        2,
-        comm,
-        DISK_CONTACT,
-        mesh_size=mesh_size,
-        order=order,
-        radius=radius,
-        center=center,
+    mesh, _, facet_tags = distribute(
+        lambda: build_disk_model(mesh_size, order, radius, center), comm, 2, [DISK_CONTACT]
     )
+    return mesh, facet_tags
 
 
 def write_msh(path: str, build: Callable[..., None], **kwargs) -> dict[str, int]:
@@ -328,12 +293,13 @@ def write_msh(path: str, build: Callable[..., None], **kwargs) -> dict[str, int]
 
     Args:
         path: The ``.msh`` file to write; its folder is created if needed.
-        build: :func:`build_ball_model` or :func:`build_disk_model`.
+        build: :func:`build_ball_model`, :func:`build_disk_model`, or another function
+            that makes the current gmsh model.
         **kwargs: Passed to ``build`` (``mesh_size``, ``order``, ...).
 
     Returns:
-        ``{"nodes": ..., "cells": ...}``: the number of nodes and of cells of
-        the highest dimension.
+        ``{"nodes": ..., "cells": ...}``: the number of cells of the highest dimension and
+        of their nodes.
 
     Raises:
         ValueError: If the arguments are out of range.
@@ -348,10 +314,9 @@ def write_msh(path: str, build: Callable[..., None], **kwargs) -> dict[str, int]
             gmsh.write(str(path))
         except Exception as error:  # gmsh raises a bare Exception
             raise OSError(f"cannot write {path!r}: {error}") from None
-        dim = gmsh.model.getDimension()
-        _, tags, _ = gmsh.model.mesh.getElements(dim)
+        _, tags, nodes = gmsh.model.mesh.getElements(gmsh.model.getDimension())
         return {
-            "nodes": len(gmsh.model.mesh.getNodes()[0]),
+            "nodes": len(np.unique(np.concatenate(nodes))),
             "cells": sum(len(t) for t in tags),
         }
 
@@ -362,18 +327,23 @@ def msh_command(
     description: str,
     default_out: str,
     cells: str,
+    mesh_size: float = 8.0,
+    order: int = 2,
 ) -> None:
     """The command line of a mesh generator script (``meshes/ball_3d.py``): ``--mesh-size``,
-    ``--order`` and ``--out``; writes the ``.msh`` file of ``build`` and one line of counts,
-    or one line naming a bad value (exit status 2)."""
+    ``--order`` and ``--out`` (defaults ``mesh_size``, ``order`` and ``default_out``);
+    writes the ``.msh`` file of ``build`` and one line of counts, or one line naming a bad
+    value (exit status 2)."""
     import argparse
     import sys
 
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(
-        "--mesh-size", type=float, default=8.0, help="target cell size (default: 8)"
+        "--mesh-size", type=float, default=mesh_size, help=f"cell size (default: {mesh_size:g})"
     )
-    parser.add_argument("--order", type=int, default=2, help="geometric order, 1 or 2 (default: 2)")
+    parser.add_argument(
+        "--order", type=int, default=order, help=f"geometric order, 1 or 2 (default: {order})"
+    )
     parser.add_argument(
         "--out", default=default_out, help="the .msh file to write (default: next to the script)"
     )

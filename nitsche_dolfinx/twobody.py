@@ -5,7 +5,8 @@ Each pair of bodies is one mesh with two disconnected parts; the second body is 
 mirror image of the first in the plane between them, node for node, so that the pair is
 symmetric at the discrete level too. The meshes are made by gmsh on rank 0 (the first
 body by the generator of the impact test, :mod:`nitsche_dolfinx.shapes`; the second as
-its mirror, entered into a new gmsh model as discrete entities) and distributed.
+its mirror, entered into a new gmsh model as discrete entities) and distributed with both
+contact surfaces spread over the ranks (:func:`nitsche_dolfinx.gmsh_pipeline.distribute`).
 """
 
 from __future__ import annotations
@@ -15,9 +16,27 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from . import compat
+from .diagnostics import BoundaryAverage
+from .gmsh_pipeline import distribute
 from .material import Material
 from .model import ContactProblem
 from .obstacles import PlaneObstacle
+from .shapes import (
+    BALL_CONTACT,
+    BALL_FREE,
+    BALL_VOLUME,
+    DISK_CONTACT,
+    DISK_FREE,
+    DISK_SURFACE,
+    add_ball_halves,
+    add_disk_halves,
+    build_ball_model,
+    build_disk_model,
+    check_body_mesh,
+    generate,
+    set_mesh_size,
+)
 
 __all__ = [
     "LOWER_BODY",
@@ -95,15 +114,13 @@ def two_bars_mesh(nx: int = 100, gap: float = 0.0, comm=MPI.COMM_WORLD):
     each. Cells: :data:`UPPER_BODY` (the right bar), :data:`LOWER_BODY`. Facets:
     :data:`UPPER_CONTACT` at x = gap, :data:`LOWER_CONTACT` at x = 0, :data:`UPPER_FREE`
     and :data:`LOWER_FREE` at the outer ends. Returns ``(mesh, cell_tags, facet_tags)``."""
-    from .shapes import gmsh_session
-
     if int(nx) < 1:
         raise ValueError(f"each bar needs at least one cell, got nx={nx!r}")
     if not np.isfinite(gap) or gap < 0:
         raise ValueError(f"the gap between the bars must be >= 0, got gap={gap!r}")
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         gmsh.model.add("bar")
         geo = gmsh.model.geo
@@ -122,8 +139,7 @@ def two_bars_mesh(nx: int = 100, gap: float = 0.0, comm=MPI.COMM_WORLD):
         }
         _mirror_into_new_model(gmsh, 1, 1, groups, plane=gap / 2)
 
-    with gmsh_session():
-        return _distribute(build, 1, comm)
+    return distribute(build, comm, 1, [UPPER_CONTACT, LOWER_CONTACT])
 
 
 def mirrored_bodies_mesh(
@@ -135,18 +151,6 @@ def mirrored_bodies_mesh(
     :data:`LOWER_CONTACT` (the lower body's upper half), :data:`UPPER_FREE`,
     :data:`LOWER_FREE`; cells :data:`UPPER_BODY`, :data:`LOWER_BODY`. Returns
     ``(mesh, cell_tags, facet_tags)``."""
-    from .shapes import (
-        BALL_CONTACT,
-        BALL_FREE,
-        BALL_VOLUME,
-        DISK_CONTACT,
-        DISK_FREE,
-        DISK_SURFACE,
-        build_ball_model,
-        build_disk_model,
-        gmsh_session,
-    )
-
     if dim not in (2, 3):
         raise ValueError(f"the mirrored bodies are disks (dim=2) or balls (dim=3), got {dim!r}")
     if not np.isfinite(gap) or gap < 0:
@@ -161,7 +165,7 @@ def mirrored_bodies_mesh(
     make = build_ball_model if dim == 3 else build_disk_model
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         make(mesh_size=mesh_size, order=order, radius=radius, center=center)
         groups = {
@@ -171,33 +175,11 @@ def mirrored_bodies_mesh(
         }
         _mirror_into_new_model(gmsh, dim, dim, groups)
 
-    with gmsh_session():
-        return _distribute(build, dim, comm)
-
-
-def _distribute(build, gdim: int, comm):
-    """Run ``build`` on rank 0 and distribute the gmsh model:
-    ``(mesh, cell_tags, facet_tags)``."""
-    import gmsh
-
-    from . import compat
-
-    error = None
-    if comm.rank == 0:
-        try:
-            build()
-        except Exception as caught:  # re-raised on every rank below
-            error = caught
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise error
-    return compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim)
+    return distribute(build, comm, dim, [UPPER_CONTACT, LOWER_CONTACT])
 
 
 def body_velocities(problem: ContactProblem, cell_tags, velocities: dict):
     """A Function of ``problem.V``: on the cells of each tag, its constant velocity."""
-    from . import compat
-
     V = problem.V
     dofmap = compat.dofmap_array(V)
     velocity = fem.Function(V)
@@ -279,8 +261,6 @@ def two_bodies_problem(
 
 def add_body_velocity_probes(simulation, cell_tags, names: dict, component: int = -1) -> None:
     """History columns ``names[tag]``: the mean velocity component of each body."""
-    from .diagnostics import BoundaryAverage
-
     problem = simulation.problem
     dx = ufl.Measure("dx", domain=problem.mesh, subdomain_data=cell_tags)
     velocity = simulation.v[problem.gdim - 1 if component == -1 else component]
@@ -306,60 +286,65 @@ def ball_on_slab_mesh(
     """A ball (``dim=3``; a disk in 2D) of ``radius`` whose lowest point is ``gap`` above a
     slab (-width/2, width/2)^(dim-1) x (0, thickness) resting on z = 0; second-order
     geometry. Cells :data:`BALL`, :data:`SLAB`; facets :data:`BALL_BOTTOM` (the lower half
-    of the ball's boundary), :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`. Returns
+    of the ball's boundary), :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`, the three contact
+    surfaces of :func:`ball_on_slab_problem`, spread over the ranks. Returns
     ``(mesh, cell_tags, facet_tags)``."""
-    import math
-
-    from .shapes import _mesh, _set_sizes, check_body_mesh, gmsh_session
-
     if dim not in (2, 3):
         raise ValueError(f"the ball on a slab is 2D or 3D, got dim={dim!r}")
     check_body_mesh(mesh_size, order=2, radius=radius, dim=dim)
     if not (width > 2 * mesh_size and thickness > mesh_size / 4 and gap >= 0):
         raise ValueError(f"slab {width!r} x {thickness!r} or gap {gap!r} out of range")
-    centre = thickness + gap + radius
 
     def build():
-        import gmsh
+        import gmsh  # optional dependency: the rank that builds the model alone
 
         gmsh.model.add("ball on slab")
-        occ = gmsh.model.occ
-        if dim == 3:
-            lower = occ.addSphere(0, 0, centre, radius, angle1=-math.pi / 2, angle2=0.0)
-            upper = occ.addSphere(0, 0, centre, radius, angle1=0.0, angle2=math.pi / 2)
-            occ.fragment([(3, lower)], [(3, upper)])
-            occ.addBox(-width / 2, -width / 2, 0, width, width, thickness)
-        else:
-            lower = occ.addCircle(0, centre, 0, radius, angle1=math.pi, angle2=2 * math.pi)
-            upper = occ.addCircle(0, centre, 0, radius, angle1=0.0, angle2=math.pi)
-            _, (low, up) = occ.fragment([(1, lower)], [(1, upper)])
-            occ.addPlaneSurface([occ.addCurveLoop([t for _, t in low + up])])
-            occ.addRectangle(-width / 2, 0, 0, width, thickness)
-        occ.synchronize()
-        ball, slab, bottom, top, base = [], [], [], [], []
-        tolerance = 1e-4 * thickness
-        for _, entity in gmsh.model.getEntities(dim):
-            height = occ.getCenterOfMass(dim, entity)[dim - 1]
-            (ball if height > thickness else slab).append(entity)
-        for _, entity in gmsh.model.getEntities(dim - 1):
-            height = occ.getCenterOfMass(dim - 1, entity)[dim - 1]
-            low, high = occ.getBoundingBox(dim - 1, entity)[dim - 1 :: 3][:2]
-            if height > thickness + gap / 2 and height < centre - 1e-6 * radius:
-                bottom.append(entity)
-            elif abs(low - thickness) < tolerance and abs(high - thickness) < tolerance:
-                top.append(entity)
-            elif abs(high) < tolerance:  # occ's boxes are a little larger than the entity
-                base.append(entity)
-        for group_dim, entities, tag in (
-            (dim, ball, BALL), (dim, slab, SLAB), (dim - 1, bottom, BALL_BOTTOM),
-            (dim - 1, top, SLAB_TOP), (dim - 1, base, SLAB_BOTTOM),
-        ):  # fmt: skip
+        _add_ball_and_slab(gmsh.model.occ, dim, radius, width, thickness, gap)
+        gmsh.model.occ.synchronize()
+        groups = _ball_and_slab_groups(gmsh.model, dim, radius, thickness, gap)
+        for group_dim, entities, tag in groups:
             gmsh.model.addPhysicalGroup(group_dim, entities, tag)
-        _set_sizes(gmsh, mesh_size)
-        _mesh(gmsh, dim, 2)
+        set_mesh_size(gmsh, mesh_size)
+        generate(gmsh, dim, 2)
 
-    with gmsh_session():
-        return _distribute(build, dim, comm)
+    return distribute(build, comm, dim, [BALL_BOTTOM, SLAB_TOP, SLAB_BOTTOM])
+
+
+def _add_ball_and_slab(occ, dim: int, radius, width, thickness, gap) -> None:
+    """The ball in two halves (see :func:`~nitsche_dolfinx.shapes.add_ball_halves`), its
+    lowest point ``gap`` above the slab, in the OCC kernel (not synchronised)."""
+    centre = thickness + gap + radius
+    if dim == 3:
+        add_ball_halves(occ, (0, 0, centre), radius)
+        occ.addBox(-width / 2, -width / 2, 0, width, width, thickness)
+    else:
+        add_disk_halves(occ, (0, centre), radius)
+        occ.addRectangle(-width / 2, 0, 0, width, thickness)
+
+
+def _ball_and_slab_groups(model, dim: int, radius: float, thickness: float, gap: float):
+    """The physical groups ``(dim, entities, tag)`` of the ball and the slab, found by the
+    heights of the entities' centres and bounding boxes."""
+    occ = model.occ
+    ball, slab, bottom, top, base = [], [], [], [], []
+    tolerance = 1e-4 * thickness
+    centre = thickness + gap + radius
+    for _, entity in model.getEntities(dim):
+        height = occ.getCenterOfMass(dim, entity)[dim - 1]
+        (ball if height > thickness else slab).append(entity)
+    for _, entity in model.getEntities(dim - 1):
+        height = occ.getCenterOfMass(dim - 1, entity)[dim - 1]
+        low, high = occ.getBoundingBox(dim - 1, entity)[dim - 1 :: 3][:2]
+        if height > thickness + gap / 2 and height < centre - 1e-6 * radius:
+            bottom.append(entity)
+        elif abs(low - thickness) < tolerance and abs(high - thickness) < tolerance:
+            top.append(entity)
+        elif abs(high) < tolerance:  # occ's boxes are a little larger than the entity
+            base.append(entity)
+    return [
+        (dim, ball, BALL), (dim, slab, SLAB), (dim - 1, bottom, BALL_BOTTOM),
+        (dim - 1, top, SLAB_TOP), (dim - 1, base, SLAB_BOTTOM),
+    ]  # fmt: skip
 
 
 def ball_on_slab_problem(

@@ -164,19 +164,6 @@ def test_gmsh_model_to_mesh(order):
     assert area == pytest.approx(np.pi, rel=0.05 if order == 1 else 2e-3)
 
 
-def test_read_gmsh_file(mpi_tmp_path):
-    gmsh = _gmsh_disk(1)
-    path = f"{mpi_tmp_path}/disk.msh"
-    try:
-        if MPI.COMM_WORLD.rank == 0:
-            gmsh.write(path)
-    finally:
-        gmsh.finalize()
-    MPI.COMM_WORLD.barrier()
-    msh, _, facet_tags = compat.read_gmsh_file(path, MPI.COMM_WORLD, 0, 2)
-    assert set(msh.comm.allreduce(facet_tags.values.tolist(), op=MPI.SUM)) == {3}
-
-
 @pytest.mark.mpi
 def test_xdmf_meshtags_roundtrip(mpi_tmp_path):
     from dolfinx.io import XDMFFile

@@ -13,7 +13,7 @@ from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from nitsche_dolfinx import compat, shapes
-from nitsche_dolfinx.meshes import contact_bisection, load_mesh
+from nitsche_dolfinx.meshes import load_mesh
 
 RADIUS = 20.0
 
@@ -164,32 +164,6 @@ def test_contact_boundary_is_spread_over_the_ranks(shape):
     cells = np.array(comm.allgather(mesh.topology.index_map(tdim).size_local))
     assert facets.min() >= 0.8 * facets.sum() / comm.size
     assert cells.max() - cells.min() <= 1
-
-
-def test_contact_bisection_gives_each_part_its_share_of_the_contact():
-    """The partitioner on a lattice of cubes, contact at the bottom: the cells in equal
-    parts, each with its share of the bottom layer (the cuts are vertical), in dolfinx
-    0.9's convention (the owners) and 0.5's (the owners, then the ranks sharing a vertex)."""
-    import dolfinx.cpp
-
-    n = 12
-    x = np.stack(np.meshgrid(*[np.arange(n + 1.0)] * 3, indexing="ij"), -1).reshape(-1, 3)
-    index = np.arange(len(x)).reshape(n + 1, n + 1, n + 1)
-    corner = index[:-1, :-1, :-1].ravel()
-    cells = np.stack([corner, corner + 1, corner + n + 1, corner + (n + 1) ** 2], axis=1)
-    contact = x[x[:, 2] == 0.0]
-    bottom = x[cells[:, 0], 2] == 0.0
-    partition = contact_bisection(x, contact, 4)
-    for parts in (2, 3, 4):
-        owners = partition(MPI.COMM_SELF, parts, [None], [cells.ravel()]).array
-        assert np.ptp(np.bincount(owners, minlength=parts)) <= 1
-        share = np.bincount(owners[bottom], minlength=parts)
-        assert share.min() >= 0.9 * bottom.sum() / parts
-        legacy = dolfinx.cpp.graph.AdjacencyList_int64(cells)
-        destinations = partition(MPI.COMM_SELF, parts, 3, legacy, None)
-        assert np.array_equal(destinations.array[destinations.offsets[:-1]], owners)
-        shared = destinations.offsets[1:] - destinations.offsets[:-1] > 1
-        assert 0 < shared.sum() < len(cells) // 2  # the cells along the cuts
 
 
 @pytest.mark.mpi
