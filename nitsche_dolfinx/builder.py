@@ -23,9 +23,10 @@ from mpi4py import MPI
 
 from .config import bad, output_parameters, reported_at, setting
 from .diagnostics import BoundaryAverage, PointValue
+from .facet_selectors import InBox, NormalWithin, OnPlane, tag_facets
 from .material import Material
 from .mesh_generators import generate_mesh
-from .meshes import InBox, NormalWithin, OnPlane, load_mesh, tag_facets
+from .meshes import load_mesh
 from .model import ContactProblem
 from .obstacles import OBSTACLES
 from .parameter_table import PARAMETERS

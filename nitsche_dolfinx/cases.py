@@ -21,6 +21,7 @@ from .meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mes
 from .model import ContactProblem
 from .obstacles import PlaneObstacle
 from .schemes import TimeScheme, make_scheme
+from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
 from .simulation import Simulation
 from .valueforms import PolynomialField
 
@@ -243,8 +244,6 @@ def impact_problem(
     ``DISK_CONTACT`` or ``BALL_CONTACT``; ``mesh_size`` and ``geometry_order`` are then
     unused. ``method``: that of :class:`ContactProblem`.
     """
-    from .shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
-
     if dim not in (2, 3):
         raise ValueError(f"the impact test is 2D (disk) or 3D (ball), got dim={dim!r}")
     make_mesh, contact_tag = (ball_mesh, BALL_CONTACT) if dim == 3 else (disk_mesh, DISK_CONTACT)

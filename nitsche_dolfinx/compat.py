@@ -20,13 +20,24 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib
 import inspect
+import itertools
+import logging
 import os
+import signal
 import sys
+import threading
 
+import cffi
+import dolfinx.cpp
+import dolfinx.geometry
+import dolfinx.io
+import dolfinx.mesh
+import dolfinx.plot
 import numpy as np
 import ufl
-from dolfinx import fem
+from dolfinx import cpp, fem, la
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -100,8 +111,6 @@ def stable_form_signatures(mesh) -> None:
       domain numbering, and gets another signature. The variant is set here, as FFCx
       sets it (basix elements, from dolfinx 0.7, have theirs).
     """
-    import itertools
-
     domain = mesh.ufl_domain()
     element = getattr(domain, "_ufl_coordinate_element", None)
     sub_element = getattr(element, "_sub_element", None)
@@ -240,16 +249,14 @@ def cells_containing(mesh, point: np.ndarray) -> list[int]:
     dolfinx 0.8 renamed ``BoundingBoxTree(mesh, dim)`` to ``bb_tree(mesh, dim)`` and
     ``compute_collisions`` (of points) to ``compute_collisions_points``.
     """
-    import dolfinx.geometry as geometry
-
     tdim = mesh.topology.dim
-    if hasattr(geometry, "bb_tree"):
-        tree = geometry.bb_tree(mesh, tdim)
-        candidates = geometry.compute_collisions_points(tree, point)
+    if hasattr(dolfinx.geometry, "bb_tree"):
+        tree = dolfinx.geometry.bb_tree(mesh, tdim)
+        candidates = dolfinx.geometry.compute_collisions_points(tree, point)
     else:
-        tree = geometry.BoundingBoxTree(mesh, tdim)
-        candidates = geometry.compute_collisions(tree, point)
-    cells = geometry.compute_colliding_cells(mesh, candidates, point)
+        tree = dolfinx.geometry.BoundingBoxTree(mesh, tdim)
+        candidates = dolfinx.geometry.compute_collisions(tree, point)
+    cells = dolfinx.geometry.compute_colliding_cells(mesh, candidates, point)
     return [int(cell) for cell in cells.links(0)]
 
 
@@ -263,8 +270,6 @@ def petsc_vector(u: fem.Function) -> PETSc.Vec:
 
 def create_vector(V) -> PETSc.Vec:
     """A ghosted PETSc vector with the layout of the function space ``V``."""
-    from dolfinx import la
-
     if hasattr(la, "create_petsc_vector"):  # <= 0.9
         return la.create_petsc_vector(V.dofmap.index_map, V.dofmap.index_map_bs)
     return fem_petsc.create_vector(V)  # >= 0.10: takes function spaces
@@ -286,8 +291,6 @@ def add_matrix_entries(A: PETSc.Mat, a) -> None:
     synchronisation of all ranks) before it returns, on every supported version: a
     surface that lies on one rank then keeps the others waiting, matrix by matrix. The
     compiled form is the Form itself up to 0.8 and its ``_cpp_object`` from 0.9."""
-    from dolfinx import cpp
-
     form = getattr(a, "_cpp_object", a)
     constants = cpp.fem.pack_constants(form)
     coefficients = cpp.fem.pack_coefficients(form)
@@ -297,8 +300,6 @@ def add_matrix_entries(A: PETSc.Mat, a) -> None:
 @functools.cache
 def _ffi():
     """One cffi FFI for the casts of :func:`form_on_facets` (it caches the types it parses)."""
-    import cffi
-
     return cffi.FFI()
 
 
@@ -310,8 +311,6 @@ def form_on_facets(a, form: ufl.Form, facets: np.ndarray, ids: np.ndarray):
     ``dolfinx.fem.form`` makes it: from the Form itself with the facets as tags up to
     0.8, from its ``_cpp_object`` with (cell, local facet) pairs from 0.9 (with the
     facet dimension as an argument in 0.9, and the kernels as a list from 0.10)."""
-    from dolfinx import cpp
-
     constants = [constant._cpp_object for constant in form.constants()]
     exterior = fem.IntegralType.exterior_facet
     if not hasattr(a, "_cpp_object"):  # <= 0.8
@@ -444,9 +443,6 @@ def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
     ``dolfinx.io.gmsh.model_to_mesh`` returns a named tuple from 0.10. In 0.5 it takes
     no partitioner: its call of ``create_mesh`` is given one for the time of the call.
     """
-    import dolfinx.io
-    import dolfinx.mesh
-
     module = getattr(dolfinx.io, "gmsh", None)
     if module is None or not hasattr(module, "model_to_mesh"):
         with sigint_kept():
@@ -503,9 +499,6 @@ def sigint_kept():
     Python instead of raising KeyboardInterrupt, and the run's own handler
     (:mod:`nitsche_dolfinx.signals`) could be lost.
     """
-    import signal
-    import threading
-
     main = threading.current_thread() is threading.main_thread()
     handler = signal.getsignal(signal.SIGINT) if main else None
     try:
@@ -526,7 +519,6 @@ def cell_partitioner(owners, num_vertices: int):
     cell with one of its vertices. dolfinx 0.9 on calls it with ``(comm, parts, cell
     types, cells as a list of arrays, one per cell type)`` and wants the owner alone.
     """
-    import dolfinx.cpp
 
     def partition(comm, parts, *args):
         cells = next(a for a in args if hasattr(a, "array") or _arrays(a))
@@ -555,8 +547,6 @@ def _with_sharing_ranks(vertices: np.ndarray, owners: np.ndarray, parts: int):
     """The destinations of cells given to ``owners`` for dolfinx 0.5 (see
     :func:`cell_partitioner`): each cell's owner, then the other ranks owning a cell that
     has one of its vertices."""
-    import dolfinx.cpp
-
     holds = np.zeros((vertices.max(initial=-1) + 1, parts), dtype=bool)
     holds[vertices, owners[:, None]] = True
     sharing = holds[vertices].any(axis=1)  # (cells, parts)
@@ -575,8 +565,6 @@ def _import_gmshio():
     try:
         from dolfinx.io import gmshio  # 0.6 - 0.9
     except ImportError:  # 0.5: gmshio is a submodule that must be imported explicitly
-        import importlib
-
         gmshio = importlib.import_module("dolfinx.io.gmshio")
     return gmshio
 
@@ -603,16 +591,13 @@ def mesh_keeping_cells(comm, cells: np.ndarray, x: np.ndarray, cell: str, degree
     dolfinx 0.9 and 0.11 find the shared nodes by their global indices: the rank alone is
     given.
     """
-    import dolfinx.cpp
-    import dolfinx.mesh
-
     gdim = x.shape[1]
     ghost_mode = "ghost_mode" in inspect.signature(dolfinx.mesh.create_mesh).parameters
     if ghost_mode:  # 0.5
         offsets, ranks = sharing()
         element = ufl.VectorElement("Lagrange", ufl.Cell(cell, geometric_dimension=gdim), degree)
     else:
-        import basix.ufl
+        import basix.ufl  # (from 0.7: absent with UFL 2022's elements)
 
         offsets = np.arange(len(cells) + 1)
         ranks = np.full(len(cells), comm.rank)
@@ -641,8 +626,6 @@ def vtk_mesh(V):
 
     ``dolfinx.plot.vtk_mesh`` from 0.7, ``create_vtk_mesh`` before.
     """
-    import dolfinx.plot
-
     function = getattr(dolfinx.plot, "vtk_mesh", None) or dolfinx.plot.create_vtk_mesh
     return function(V)
 
@@ -678,8 +661,6 @@ class _BuildLogFilter:
 def quiet_form_compilation() -> None:
     """Silence the compiler lines of form compilation, unless the environment variable
     ``NITSCHE_DOLFINX_VERBOSE`` is set (idempotent)."""
-    import logging
-
     root = logging.getLogger()
     if os.environ.get("NITSCHE_DOLFINX_VERBOSE") or any(
         isinstance(f, _BuildLogFilter) for f in root.filters

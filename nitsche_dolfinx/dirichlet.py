@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from dolfinx import fem
 
+from .keys import LARGEST
+
 __all__ = ["DirichletCondition", "DirichletDofs", "TimeDependentValue", "as_array"]
 
 
@@ -43,11 +45,20 @@ class TimeDependentValue:
 
 
 def as_array(value, shape, what) -> np.ndarray:
-    array = np.asarray(value, dtype=float)
+    """``value`` as an array of ``shape`` (a number for ``(1,)``), of finite numbers of
+    magnitude at most :data:`~nitsche_dolfinx.keys.LARGEST`; ValueError naming ``what``."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be numbers, got {value!r}") from None
     if array.shape != shape:
-        if array.size == 1 and shape == (1,):
-            return array.reshape(shape)
-        raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
+        if array.size != 1 or shape != (1,):
+            raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
+        array = array.reshape(shape)
+    if not (np.all(np.isfinite(array)) and np.all(np.abs(array) <= LARGEST)):
+        raise ValueError(
+            f"{what} must be finite, of magnitude at most {LARGEST:g}, got {array.tolist()!r}"
+        )
     return array
 
 

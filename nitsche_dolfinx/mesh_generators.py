@@ -16,9 +16,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .keys import Key, is_number
-from .meshes import bar_mesh, block_mesh
+from .meshes import MAX_CELLS, bar_mesh, block_mesh
 from .parameters import ParameterError
-from .shapes import MAX_CELLS, ball_mesh, disk_mesh
+from .shapes import ball_mesh, disk_mesh
 from .twobody import ball_on_slab_mesh, mirrored_bodies_mesh, two_bars_mesh
 
 __all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "check_generator", "generate_mesh"]
@@ -177,7 +177,7 @@ def check_generator(name: str, table: dict) -> None:
     """Check the keys of ``table``, each of its kind and range (:data:`GENERATOR_KEYS`,
     checked with the table's other keys), for the generator ``name``: keys it takes, a
     centre of the mesh's dimension, and a mesh of at most
-    :data:`~nitsche_dolfinx.shapes.MAX_CELLS` cells.
+    :data:`~nitsche_dolfinx.meshes.MAX_CELLS` cells.
 
     Raises:
         ParameterError: Naming the first bad key and its value.

@@ -16,24 +16,21 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 from dolfinx import fem
 from dolfinx import mesh as dmesh
+from dolfinx.io import XDMFFile
 from mpi4py import MPI
 
 from . import compat
-from .facet_selectors import InBox, NormalWithin, OnPlane, facet_cells, facet_vertices, tag_facets
+from .facet_selectors import tag_facets
 from .gmsh_pipeline import check_file, from_root, read_msh
+from .parameters import require
 
 __all__ = [
-    "InBox",
-    "NormalWithin",
-    "OnPlane",
+    "MAX_CELLS",
     "bar_mesh",
     "block_mesh",
     "cell_diameter",
-    "facet_cells",
-    "facet_vertices",
     "load_mesh",
     "save_mesh",
-    "tag_facets",
     "BAR_CONTACT",
     "BAR_CLAMPED",
     "BLOCK_CONTACT",
@@ -72,6 +69,18 @@ def cell_diameter(mesh) -> fem.Function:
     return h
 
 
+#: The most cells a generated mesh may have: more is a mistake in a size, not a mesh.
+MAX_CELLS = 50_000_000
+
+
+def _check_cells(count: int, name: str, value) -> None:
+    """Refuse ``name=value`` that makes ``count`` cells, more than :data:`MAX_CELLS`."""
+    require(
+        count <= MAX_CELLS, name, value,
+        f"would make {count:.3g} cells, more than {MAX_CELLS:.0e}",
+    )  # fmt: skip
+
+
 def bar_mesh(nx: int = 100, length: float = 1.0, comm=MPI.COMM_WORLD):
     """The 1D bar (0, length) with ``nx`` cells; facets tagged :data:`BAR_CONTACT` at x = 0
     and :data:`BAR_CLAMPED` at x = length.
@@ -81,6 +90,7 @@ def bar_mesh(nx: int = 100, length: float = 1.0, comm=MPI.COMM_WORLD):
     """
     if int(nx) < 1:
         raise ValueError(f"the bar needs at least one cell, got nx={nx!r}")
+    _check_cells(int(nx), "nx", nx)
     mesh = dmesh.create_interval(comm, int(nx), [0.0, float(length)])
     tags = tag_facets(
         mesh,
@@ -105,6 +115,7 @@ def block_mesh(
         raise ValueError(f"the block needs a positive size, got {width!r} x {height!r}")
     if int(nx) < 1 or int(ny) < 1:
         raise ValueError(f"the block needs at least one cell each way, got nx={nx!r}, ny={ny!r}")
+    _check_cells(2 * int(nx) * int(ny), "nx" if nx >= ny else "ny", max(nx, ny))
     corners = [np.array([-width / 2, 0.0]), np.array([width / 2, height])]
     mesh = dmesh.create_rectangle(comm, corners, [int(nx), int(ny)], dmesh.CellType.triangle)
     tags = tag_facets(mesh, {BLOCK_CONTACT: lambda x: np.isclose(x[1], 0.0)})
@@ -211,8 +222,6 @@ def _check_xdmf(path: str, extension: str, mesh_name, facet_tags_name, required:
 
 def _load_xdmf(path, comm, mesh_name, facet_tags_name):
     """The mesh and the facet tags of an XDMF file (None for ``facet_tags_name``: none)."""
-    from dolfinx.io import XDMFFile
-
     with XDMFFile(comm, path, "r") as xdmf:
         mesh = xdmf.read_mesh(name=mesh_name)
         mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
@@ -226,8 +235,6 @@ def save_mesh(
     path: str, mesh, facet_tags, mesh_name: str = "mesh", facet_tags_name: str = "facet_tags"
 ) -> None:
     """Write a mesh and its facet tags to an XDMF file that :func:`load_mesh` reads back."""
-    from dolfinx.io import XDMFFile
-
     mesh.name = mesh_name
     facet_tags.name = facet_tags_name
     with XDMFFile(mesh.comm, str(path), "w") as xdmf:

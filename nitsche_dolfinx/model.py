@@ -100,6 +100,12 @@ class ContactProblem:
         mass: str = "consistent",
         gamma0_scaling: str = "absolute",
     ):
+        require(
+            isinstance(material, Material),
+            "material",
+            material,
+            "must be a Material: Material(E=..., nu=..., rho=...) or Material.from_lame(...)",
+        )
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
         nitsche.check_scale(material.E)
         discretisation = Discretisation(degree, mass, quadrature_degree)

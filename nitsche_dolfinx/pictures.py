@@ -28,6 +28,8 @@ from dolfinx import fem
 
 from . import compat
 from .material import von_mises
+from .plotting import pyplot, save
+from .series import read_solution
 
 __all__ = [
     "Snapshot",
@@ -273,8 +275,6 @@ def render_contact_pressure(solution: str, t: float, path: str, title: str = "ba
     Reads the file with h5py (call it on one rank); pyvista is optional and renders off
     screen; if it is missing or rendering fails, one line says so.
     """
-    from .series import read_solution
-
     (level,) = read_solution(solution, t)
     if "contact_pressure" not in level.fields:
         print(f"no picture: {solution} has no contact_pressure")
@@ -367,8 +367,6 @@ def render_worldlines(worldlines: Worldlines, title: str, path: str) -> None:
     """Draw the bars of ``worldlines`` where they are (x + u) against t, coloured by their
     velocity, into ``path`` (rank 0); a bar ends where two neighbouring nodes are farther
     apart in the reference configuration than twice the median spacing."""
-    from .plotting import pyplot, save
-
     plt = pyplot()
     if plt is None or not worldlines.t:
         return

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from .exact import BAR_ENERGY, bar_contact_values
+
 __all__ = [
     "BAR_METHOD_STYLES",
     "BAR_PANELS",
@@ -39,14 +41,14 @@ def pyplot():
         print("matplotlib is not installed: no figure")
         return None
     matplotlib.use("Agg")  # no display needed
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: matplotlib is imported only to draw
 
     return plt
 
 
 def save(fig, path: str, dpi: int = 120) -> None:
     """Write the figure to ``path``, close it and say where it went."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # optional: matplotlib is imported only to draw
 
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
@@ -145,8 +147,6 @@ BAR_PANELS = (
 def bar_panels(axes, histories: Sequence, labels: Sequence[str], styles: Sequence[dict], t_end):
     """Draw the four :data:`BAR_PANELS` of the bar into ``axes``, each run over the exact
     solution (black; docs/method.md section 5): ``styles`` are matplotlib line options."""
-    from .exact import BAR_ENERGY, bar_contact_values
-
     t_exact = np.linspace(0.0, t_end, 4001)  # fine, so that the kinks stay sharp
     exact = dict(zip(("u_contact", "v_contact", "sigma_contact"), bar_contact_values(t_exact)))
     for ax, (name, title) in zip(axes, BAR_PANELS):

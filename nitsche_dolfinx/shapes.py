@@ -14,14 +14,17 @@ into a distributed dolfinx mesh (:func:`nitsche_dolfinx.gmsh_pipeline.distribute
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
+import sys
 from collections.abc import Callable, Sequence
 
 import numpy as np
 from mpi4py import MPI
 
 from .gmsh_pipeline import distribute, gmsh_session
+from .meshes import MAX_CELLS
 
 __all__ = [
     "BALL_CONTACT",
@@ -59,8 +62,6 @@ DISK_CONTACT = 1
 DISK_FREE = 2
 
 
-#: The most cells a generated body may have: more is a mistake in mesh_size, not a mesh.
-MAX_CELLS = 50_000_000
 #: Cells of the ball (3D) and the disk (2D) per (radius / mesh_size)^dim, measured.
 _CELLS_PER_SIZE = {3: 31.0, 2: 10.0}
 
@@ -334,9 +335,6 @@ def msh_command(
     ``--order`` and ``--out`` (defaults ``mesh_size``, ``order`` and ``default_out``);
     writes the ``.msh`` file of ``build`` and one line of counts, or one line naming a bad
     value (exit status 2)."""
-    import argparse
-    import sys
-
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument(
         "--mesh-size", type=float, default=mesh_size, help=f"cell size (default: {mesh_size:g})"

@@ -138,7 +138,7 @@ def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
     elif callable(value):
         target.interpolate(lambda x: np.asarray(value(x), dtype=float).reshape(gdim, -1))
     else:
-        array = as_array(value, (gdim,), "initial value")
+        array = as_array(value, (gdim,), f"initial {target.name}")
         target.interpolate(lambda x: np.tile(array[:, None], (1, x.shape[1])))
     target.x.scatter_forward()
     finite = target.function_space.mesh.comm.allreduce(

@@ -1,12 +1,12 @@
 """The disk of the impact test made exactly mirror-symmetric (its left half meshed by gmsh,
 then mirrored node for node), its left half, and pairs of them: meshes without physical
-groups, tagged by :func:`~nitsche_dolfinx.meshes.tag_facets`, for the tests that compare a
+groups, tagged by :func:`~nitsche_dolfinx.facet_selectors.tag_facets`, for the tests that compare a
 body with its half."""
 
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx.meshes import OnPlane, tag_facets
+from nitsche_dolfinx.facet_selectors import OnPlane, tag_facets
 from nitsche_dolfinx.shapes import DISK_CONTACT, DISK_FREE, gmsh_session
 
 RADIUS = 20.0

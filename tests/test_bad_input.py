@@ -21,7 +21,8 @@ from nitsche_dolfinx import (
 )
 from nitsche_dolfinx.cases import bar_problem
 from nitsche_dolfinx.diagnostics import PointValue
-from nitsche_dolfinx.meshes import NormalWithin, load_mesh, tag_facets
+from nitsche_dolfinx.facet_selectors import NormalWithin, tag_facets
+from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.obstacles import CylinderObstacle, SphereObstacle
 from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
 from nitsche_dolfinx.shapes import check_body_mesh
@@ -57,7 +58,35 @@ def nan_velocity():
     return Simulation(problem, HybridScheme(), dt=0.1, t_end=0.2)
 
 
+def ring_with(**terms):
+    """The README's ring with a term added through the API."""
+    problem = ring()
+    for name, args in terms.items():
+        getattr(problem, name)(*args)
+    return problem
+
+
 API = {
+    "material-string": (
+        lambda: ContactProblem(*load_mesh(os.path.join(REPO, "meshes", "ring_2d.msh")), "steel"),
+        "material='steel': must be a Material",
+    ),
+    "body-force-string": (
+        lambda: ring_with(add_body_force=(["0", "down"],)),
+        "body force must be numbers, got ['0', 'down']",
+    ),
+    "body-force-huge": (
+        lambda: ring_with(add_body_force=([0.0, -1e300],)),
+        "body force must be finite, of magnitude at most 1e+100",
+    ),
+    "traction-nan": (
+        lambda: ring_with(add_traction=(1, [math.nan, 0.0])),
+        "traction must be finite",
+    ),
+    "dirichlet-time-function-inf": (
+        lambda: ring_with(add_dirichlet=(1, lambda t: [0.0, math.inf])),
+        "Dirichlet value must be finite",
+    ),
     "dt-zero": (lambda: TimeStepping(0.0, 1.0), "dt=0.0"),
     "dt-nan": (lambda: TimeStepping(math.nan, 1.0), "dt=nan"),
     "t-end-below-dt": (lambda: TimeStepping(0.1, 0.05), "t_end=0.05"),
@@ -661,6 +690,14 @@ def test_cli_refuses_bad_flags(tmp_path):
 # -- the demos' flags --------------------------------------------------------------------
 
 FLAGS = {
+    "bar-nx-huge": (
+        ["demos/bar_1d.py", "--nx", "1000000000"],
+        "--nx 1000000000: would make 1e+09 cells, more than 5e+07",
+    ),
+    "block-nx-huge": (
+        ["demos/friction_block_2d.py", "--nx", "100000"],
+        "--nx 100000: would make 1e+10 cells",
+    ),
     "bar-nitsche-theta-huge": (
         ["demos/bar_1d.py", "--nitsche-theta", "1e300"],
         "--nitsche-theta 1e+300: |Theta| gamma0 E = 1e+294 is above 100",

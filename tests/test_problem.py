@@ -13,7 +13,7 @@ from nitsche_dolfinx import (
     PlaneObstacle,
     Simulation,
 )
-from nitsche_dolfinx.meshes import tag_facets
+from nitsche_dolfinx.facet_selectors import tag_facets
 
 BOTTOM, TOP = 1, 2
 
