@@ -1,26 +1,15 @@
 """nitsche-dolfinx: dynamic contact in elastodynamics by Nitsche's method, for FEniCSx.
 
 The method of Chouly, Hild & Renard, "A Nitsche finite element method for
-dynamic contact", M2AN 49 (2015) 481-528. One module per idea:
-
-- :mod:`~nitsche_dolfinx.material`: sigma, eps, sigma_n, sigma_t, von Mises;
-- :mod:`~nitsche_dolfinx.obstacles`: rigid obstacles by signed distance;
-- :mod:`~nitsche_dolfinx.contact`: the Nitsche contact terms in UFL;
-- :mod:`~nitsche_dolfinx.schemes`: theta, Newmark, Crank-Nicolson and the hybrid scheme;
-- :mod:`~nitsche_dolfinx.solver`: the PETSc SNES wrapper;
-- :mod:`~nitsche_dolfinx.diagnostics`: energies E and E_Theta, contact force;
-- :mod:`~nitsche_dolfinx.parameters`: the parameters of a run, validated once;
-- :mod:`~nitsche_dolfinx.model`: the problem object (the model and its terms);
-- :mod:`~nitsche_dolfinx.friction`: the guarded Newton and the output of Coulomb friction;
-- :mod:`~nitsche_dolfinx.stepper`, :mod:`~nitsche_dolfinx.mixed`: one time step (Nitsche and
-  penalty; the mixed method);
-- :mod:`~nitsche_dolfinx.simulation`: the run driver (history, fields, checkpoints, restarts);
-- :mod:`~nitsche_dolfinx.history`: the history of a run and its summary figures;
-- :mod:`~nitsche_dolfinx.meshes`, :mod:`~nitsche_dolfinx.shapes`: loading meshes, gmsh bodies;
-- :mod:`~nitsche_dolfinx.output`, :mod:`~nitsche_dolfinx.exact`, :mod:`~nitsche_dolfinx.cases`;
-- :mod:`~nitsche_dolfinx.config`, :mod:`~nitsche_dolfinx.cli`: the ``nitsche-dolfinx`` command;
-- :mod:`~nitsche_dolfinx.pairs`, :mod:`~nitsche_dolfinx.twobody`: contact between two bodies;
-- :mod:`~nitsche_dolfinx.compat`: every dolfinx version difference (0.5 to 0.11).
+dynamic contact", M2AN 49 (2015) 481-528. One module per idea, in layers that
+look only down: the formulas (:mod:`~nitsche_dolfinx.material`,
+:mod:`~nitsche_dolfinx.obstacles`, :mod:`~nitsche_dolfinx.contact`,
+:mod:`~nitsche_dolfinx.schemes`), the model (:mod:`~nitsche_dolfinx.model`), the
+assembly and the solver (:mod:`~nitsche_dolfinx.systems`, :mod:`~nitsche_dolfinx.solver`),
+the steps (:mod:`~nitsche_dolfinx.stepper`), the run driver
+(:mod:`~nitsche_dolfinx.simulation`), the front ends (the names below, TOML files and
+the ``nitsche-dolfinx`` command, the demos); every dolfinx version difference in
+:mod:`~nitsche_dolfinx.compat`. docs/layout.md lists every module.
 
 Importing the package silences the compiler lines that form compilation logs on
 dolfinx 0.5 (set ``NITSCHE_DOLFINX_VERBOSE=1`` to see them).

@@ -32,16 +32,20 @@ def test_code_references_name_the_package(document):
     names = code_names(os.path.join(REPO, "docs", document))
     if document == "method.md":
         assert len(names) > 100  # the references were found at all
-    missing = []
+    missing, elsewhere = [], []
     for name in names:
         module, *attributes = name.split(".")
         target = importlib.import_module(f"nitsche_dolfinx.{module}")
-        for attribute in attributes:
+        for depth, attribute in enumerate(attributes):
             target = getattr(target, attribute, None)
             if target is None:
                 missing.append(name)
                 break
+            defined = getattr(target, "__module__", None)
+            if depth == 0 and callable(target) and defined != f"nitsche_dolfinx.{module}":
+                elsewhere.append(f"{name} (defined in {defined})")  # imported there
     assert not missing, f"docs/{document} names what the package lacks: {missing}"
+    assert not elsewhere, f"docs/{document} names things where they are not defined: {elsewhere}"
 
 
 def test_layout_lists_every_module():
