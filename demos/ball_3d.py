@@ -71,7 +71,7 @@ from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, latex_number
-from nitsche_dolfinx.reports import friction_summary, runs_table, steps_text
+from nitsche_dolfinx.reports import friction_summary, runs_table, steps_text, written_to
 from nitsche_dolfinx.shapes import check_body_mesh
 
 # -
@@ -99,8 +99,7 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
         help="extra PETSc option of the step's solver (repeatable; wins over --linear-solver)",
     )  # fmt: skip
     add_run_arguments(parser)
-    add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     parser.add_argument(
         "--compare", action=argparse.BooleanOptionalAction, default=True,
         help="also run the other schemes of the talk's energy figure (into OUT/<scheme>)",
@@ -183,10 +182,7 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
     runs_table([run[:3] for run in runs])
     if args.mu is not None:
         friction_summary(history, args.mu)
-    for out in outs:
-        print(f"history: {os.path.join(out, 'history.csv')}")
-    if args.output_every > 0:
-        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
         title = (
             rf"{body}, Nitsche $\Theta = {args.nitsche_theta:g}$, "

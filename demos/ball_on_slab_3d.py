@@ -43,6 +43,7 @@ from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.reports import written_to
 from nitsche_dolfinx.shapes import check_body_mesh
 from nitsche_dolfinx.twobody import ball_on_slab_problem
 
@@ -61,8 +62,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
     parser.add_argument("--v0", type=finite_float, default=1.0, help="the ball's initial speed")
     parser.add_argument("--out", default=os.path.join("out", "ball_on_slab_3d"))
-    add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser
 
 
@@ -99,9 +99,7 @@ def main(argv: list[str] | None = None) -> None:
         f"{history.largest_rise():.2e}, Newton {history.mean_newton_iterations():.2f} per step, "
         f"largest contact force {history['contact_force'].max():.4g} (pair and ground)"
     )
-    print(f"history: {os.path.join(args.out, 'history.csv')}")
-    if args.output_every > 0:
-        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    print(written_to(args.out, args.output_every))
     if not args.no_plot:
         title = (
             rf"{'ball' if args.dim == 3 else 'disk'} on a slab, "

@@ -71,7 +71,7 @@ from nitsche_dolfinx.checkpoint import has_checkpoint
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES, require
 from nitsche_dolfinx.plotting import bar_figure, latex_number
-from nitsche_dolfinx.reports import bar_summary
+from nitsche_dolfinx.reports import bar_summary, written_to
 
 # Names of the schemes in the figure and the summary
 SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}
@@ -100,7 +100,6 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
     add_run_arguments(parser)
     add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     parser.add_argument(
         "--compare", action=argparse.BooleanOptionalAction, default=True,
         help="also run Nitsche + Crank-Nicolson (into OUT/cn) for comparison",
@@ -179,10 +178,7 @@ def main(argv: list[str] | None = None) -> None:
     # energy, each over the exact solution (matplotlib is optional).
     histories, labels = zip(*runs)
     bar_summary(histories, labels, args.dt)
-    for out in outs:
-        print(f"history: {os.path.join(out, 'history.csv')}")
-    if args.output_every > 0:
-        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
         title = (
             rf"1D bouncing bar, Nitsche $\Theta = {args.nitsche_theta:g}$, "

@@ -53,6 +53,7 @@ from nitsche_dolfinx.exact import bar_contact_errors
 from nitsche_dolfinx.output import HistoryWriter, SolutionWriter
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.plotting import bar_figure, latex_number
+from nitsche_dolfinx.reports import written_to
 
 # -
 
@@ -69,7 +70,6 @@ add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
 parser.add_argument("--nx", type=int, default=100, help="number of cells")
 parser.add_argument("--out", default=os.path.join("out", "bar_loop_1d"), help="output folder")
 add_terminal_arguments(parser)  # --output-every N (the fields every N steps), --quiet
-parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
 parser.add_argument("--run", action="store_true", help="Simulation.run instead of the loop")
 args = parser.parse_args()
 comm = MPI.COMM_WORLD
@@ -149,9 +149,7 @@ if comm.rank == 0:
     print(f"{len(history) - 1} steps; l2(0, T) error of u(t, 0): {error:.4e}; "
           f"E(T)/E(0) - 1 = {history.energy_drift():+.3%}; "
           f"largest one-step rise of E_Theta: {history.largest_rise():.2e}")  # fmt: skip
-    print(f"history: {os.path.join(args.out, 'history.csv')}")
-    if args.output_every > 0:
-        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    print(written_to(args.out, args.output_every))
     if not args.no_plot:
         label = f"Nitsche + {simulation.scheme.describe()}"
         title = (

@@ -101,7 +101,6 @@ def make_parser() -> argparse.ArgumentParser:
         "--out", default=os.path.join("out", "convergence_1d"), help="output folder"
     )
     add_terminal_arguments(parser, output_every=0)
-    parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 
 

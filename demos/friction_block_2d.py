@@ -89,8 +89,7 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--E", type=finite_float, default=1e4, help="Young's modulus")
     parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
     parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
-    add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="accepted; this demo draws nothing")
+    add_terminal_arguments(parser, draws=None)
     return parser, parser.parse_args(argv)
 
 

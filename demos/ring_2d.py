@@ -80,7 +80,7 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.meshes import load_mesh
 from nitsche_dolfinx.plotting import energy_figure, latex_number
-from nitsche_dolfinx.reports import run_summary
+from nitsche_dolfinx.reports import run_summary, written_to
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")
@@ -112,7 +112,6 @@ def make_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--out", default=os.path.join("out", "ring_2d"), help="output folder")
     add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="do not draw the figure")
     return parser
 
 
@@ -181,9 +180,7 @@ def main(argv: list[str] | None = None) -> None:
 
     if MPI.COMM_WORLD.rank == 0:
         run_summary(history, seconds)
-        print(f"history: {os.path.join(args.out, 'history.csv')}")
-        if args.output_every > 0:
-            print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+        print(written_to(args.out, args.output_every))
         if not args.no_plot:
             title = (
                 rf"2D bouncing ring, {simulation.scheme.describe()}, Nitsche "

@@ -50,6 +50,7 @@ from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.reports import written_to
 from nitsche_dolfinx.shapes import ball_mesh, check_body_mesh, disk_mesh
 from nitsche_dolfinx.twobody import two_bodies_problem
 
@@ -77,8 +78,7 @@ def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
         "--compare", action=argparse.BooleanOptionalAction, default=True,
         help="also run one body on the rigid plane of symmetry with gamma0/2 (OUT/plane)",
     )  # fmt: skip
-    add_terminal_arguments(parser)
-    parser.add_argument("--no-plot", action="store_true", help="no energy figure, no picture")
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser
 
 
@@ -164,9 +164,7 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
             f"against one {body} on the plane with gamma0/2: contact force differs by "
             f"{force:.2e} relative, E_Theta by {energy:.2e}"
         )
-    print(f"history: {os.path.join(args.out, 'history.csv')}")
-    if args.output_every > 0:
-        print(f"fields: {os.path.join(args.out, 'solution.xdmf')}")
+    print(written_to(args.out, args.output_every))
     if not args.no_plot:
         title = (
             rf"two {body}s, {args.variant}, pairing {args.pairing}, "

@@ -189,13 +189,18 @@ def add_version_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_terminal_arguments(parser: argparse.ArgumentParser, output_every: int = 10) -> None:
+def add_terminal_arguments(
+    parser: argparse.ArgumentParser, output_every: int = 10, draws: str | None = "the figure"
+) -> None:
     """Add the flags of every demo (docs/method.md section 6): ``--output-every N`` (the
-    fields every N steps, 0: never), ``--quiet`` (no progress) and ``--version``."""
+    fields every N steps, 0: never), ``--quiet`` (no progress), ``--no-plot`` (no
+    ``draws``; a demo that draws nothing, None, accepts it) and ``--version``."""
     add_output_every_argument(parser, output_every)
     parser.add_argument(
         "--quiet", action="store_true", help="no progress on the terminal (bar or line per step)"
     )
+    help_text = f"do not draw {draws}" if draws else "accepted; this demo draws nothing"
+    parser.add_argument("--no-plot", action="store_true", help=help_text)
     add_version_argument(parser)
 
 

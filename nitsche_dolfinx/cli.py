@@ -15,7 +15,6 @@ configuration, 1 for a failed run, 130/143 for an interrupted one.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from mpi4py import MPI
@@ -31,6 +30,7 @@ from .config import history_columns, load_config, output_parameters
 from .errors import one_line_errors
 from .parameter_table import markdown
 from .parameters import OutputParameters
+from .reports import written_to
 from .schema import describe
 
 __all__ = ["main"]
@@ -132,9 +132,7 @@ def _run(args: argparse.Namespace, run_parser: argparse.ArgumentParser) -> int:
             restart=args.restart,
         )
     if comm.rank == 0 and not args.quiet:
-        print(f"history: {os.path.join(out, 'history.csv')}")
-        if output.output_every > 0:
-            print(f"fields: {os.path.join(out, 'solution.xdmf')}")
+        print(written_to(out, output.output_every))
     return 0
 
 

@@ -62,14 +62,7 @@ class PlaneObstacle(Obstacle):
 
     def __init__(self, point: Sequence[float], normal: Sequence[float]):
         self.point = _coordinates(point, "point", "the plane's point")
-        normal = _coordinates(normal, "normal", "the plane's normal")
-        require(
-            normal.shape == self.point.shape,
-            "normal",
-            normal.tolist(),
-            f"the normal must have as many coordinates as the point {self.point.tolist()}",
-        )
-        self.unit_normal = _unit(normal, "normal", "the plane's normal")
+        self.unit_normal = _direction(normal, "normal", "the plane's normal", self.point)
 
     def distance(self, x):
         return ufl.dot(
@@ -127,6 +120,18 @@ def _unit(vector: np.ndarray, name: str, what: str) -> np.ndarray:
     length = float(np.linalg.norm(vector))
     require(length > 0.0, name, vector.tolist(), f"{what} must have a non-zero length")
     return vector / length
+
+
+def _direction(values, name: str, what: str, point: np.ndarray) -> np.ndarray:
+    """A direction given with as many coordinates as ``point``, made unit."""
+    direction = _coordinates(values, name, what)
+    require(
+        direction.shape == point.shape,
+        name,
+        direction.tolist(),
+        f"the {name} must have as many coordinates as the point {point.tolist()}",
+    )
+    return _unit(direction, name, what)
 
 
 def _check_side(side: str) -> str:
@@ -218,14 +223,7 @@ class CylinderObstacle(_RadialObstacle):
         self, point: Sequence[float], axis: Sequence[float], radius: float, side: str = "outside"
     ):
         self.point = _coordinates(point, "point", "the cylinder's point")
-        axis = _coordinates(axis, "axis", "the cylinder's axis")
-        require(
-            axis.size == self.point.size,
-            "axis",
-            axis.tolist(),
-            f"the axis must have as many coordinates as the point {self.point.tolist()}",
-        )
-        self.axis = _unit(axis, "axis", "the cylinder's axis")
+        self.axis = _direction(axis, "axis", "the cylinder's axis", self.point)
         self.radius = require_positive(radius, "radius", "the radius")
         self.side = _check_side(side)
 

@@ -10,6 +10,7 @@ those of :class:`~nitsche_dolfinx.history.History` and :mod:`nitsche_dolfinx.exa
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Sequence
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy as np
 from .exact import bar_contact_errors, observed_orders
 
 __all__ = [
+    "written_to",
     "COMPARISON_COLUMNS",
     "CONVERGENCE_ERRORS",
     "bar_summary",
@@ -259,3 +261,12 @@ def refinement_table(rows: Sequence[dict]) -> None:
             f"{row['nx']:6d} {row['dt']:9.3g} {row['duration_error']:10.3e} "
             f"{row['exit_velocity_error']:10.3e} {row['energy_error']:10.3e}"
         )
+
+
+def written_to(out: str, output_every: int, histories=None) -> str:
+    """Where a run wrote its outputs, a line each: the histories (``OUT/history.csv``, or
+    those of the folders ``histories``), and the fields when ``output_every`` > 0."""
+    lines = [f"history: {os.path.join(folder, 'history.csv')}" for folder in histories or [out]]
+    if output_every > 0:
+        lines.append(f"fields: {os.path.join(out, 'solution.xdmf')}")
+    return "\n".join(lines)
