@@ -103,7 +103,8 @@ def test_friction_history_columns_and_fields(tmp_path):
     names = set(simulation.output_fields())
     assert {"slip_velocity", "friction_traction"} <= names
     fields = simulation.output_fields()
-    slip, traction = fields["slip_velocity"][0].function, fields["friction_traction"][0].function
+    slip = fields["slip_velocity"][0].source.function
+    traction = fields["friction_traction"][0].source.function
     # sliding to +x: slip along +x and a traction along -x of magnitude mu_f |sigma_n| ~ 0.2
     bottom = np.flatnonzero(np.abs(slip.x.array.reshape(-1, 2)[:, 0]) > 0)
     assert bottom.size > 0
