@@ -9,7 +9,10 @@ an older commit (``git worktree add``) gives the histories from before a change.
 ``compare`` reads every history of OLD and NEW: for each column, the largest difference
 must be at most ``rtol`` times that column's largest absolute value in OLD (the wall
 times ``step_seconds`` are left out); it prints one line per history, the worst column
-first, and exits with status 1 if any differs more or is missing.
+first, and for a column beyond ``rtol`` its absolute difference and largest value (a
+column that is physically zero, such as the total momentum of two bodies thrown at each
+other, is round-off in both: judge it against the scale of the physics), and exits with
+status 1 if any differs more or is missing.
 """
 
 from __future__ import annotations
@@ -82,18 +85,23 @@ def compare(old: str, new: str, rtol: float) -> int:
             status = 1
             continue
         a, b = read(path), read(other)
-        problems, worst = [], []
+        problems, worst, absolute = [], [], {}
         for column, values in a.items():
             if column in IGNORED:
                 continue
             if column not in b or len(b[column]) != len(values):
                 problems.append(f"{column} missing or of another length")
                 continue
-            scale = max(float(np.abs(values).max(initial=0.0)), 1e-300)
-            difference = float(np.abs(b[column] - values).max(initial=0.0)) / scale
-            worst.append((difference, column))
+            largest = float(np.abs(values).max(initial=0.0))
+            absolute[column] = (float(np.abs(b[column] - values).max(initial=0.0)), largest)
+            worst.append((absolute[column][0] / max(largest, 1e-300), column))
         worst.sort(reverse=True)
-        bad = [f"{column} {d:.2e}" for d, column in worst if d > rtol] + problems
+        bad = [
+            f"{column} {d:.2e} (difference {absolute[column][0]:.2e}, largest value "
+            f"{absolute[column][1]:.2e})"
+            for d, column in worst
+            if d > rtol
+        ] + problems
         shown = ", ".join(f"{column} {d:.2e}" for d, column in worst[:3])
         print(f"{name}: {'DIFFERS' if bad else 'same'} (largest relative differences: {shown})")
         if bad:

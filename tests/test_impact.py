@@ -144,8 +144,7 @@ def test_jacobian_rows_set_again_are_the_sum_in_full(monkeypatch):
     while simulation.t < 24.95:
         simulation.step()
     solver = simulation.solver
-    system, checks = solver.system, []
-    generations = [system.facet.generation]
+    system, checks, generations = solver.system, [], []
 
     def check(snes, iteration, norm):  # A and B: those of the last Jacobian evaluation
         summed = system.K_bc.copy()
@@ -158,7 +157,7 @@ def test_jacobian_rows_set_again_are_the_sum_in_full(monkeypatch):
     simulation.run()  # the contact ends at t ~ 27.8
     assert simulation.state()["contact_force"] == 0.0
     assert len(checks) > 40 and all(checks)
-    assert generations[-1] > generations[0]  # B was made again on other facets
+    assert generations[-1] > 1  # B was made again on other facets as the contact moved
 
 
 def test_contact_jacobian_near_the_contact_is_the_whole_one(monkeypatch):
