@@ -50,58 +50,77 @@ class MinimalBar:
     def __init__(self, comm, t_end: float, petsc_options=None):
         self.t_end = t_end
         mesh = dmesh.create_interval(comm, NX, [0.0, 1.0])
-        V = compat.function_space(mesh, "Lagrange", 1, (1,))
-        self.V = V
+        V = self.V = compat.function_space(mesh, "Lagrange", 1, (1,))
         self.w, self.u, self.v, self.a = (fem.Function(V) for _ in range(4))
-        fdim = 0
-        wall = dmesh.locate_entities_boundary(mesh, fdim, lambda x: np.isclose(x[0], 0.0))
-        clamp = dmesh.locate_entities_boundary(mesh, fdim, lambda x: np.isclose(x[0], 1.0))
-        tags = dmesh.meshtags(mesh, fdim, wall, np.full(len(wall), 1, dtype=np.int32))
-        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 2})
+        wall = dmesh.locate_entities_boundary(mesh, 0, lambda x: np.isclose(x[0], 0.0))
+        clamp = dmesh.locate_entities_boundary(mesh, 0, lambda x: np.isclose(x[0], 1.0))
+        tags = dmesh.meshtags(mesh, 0, wall, np.full(len(wall), 1, dtype=np.int32))
+        self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": 2})
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags, metadata={"quadrature_degree": 2})
-        wall_dofs = fem.locate_dofs_topological(V, fdim, wall)
+        self.ds = ds(1)
+        wall_dofs = fem.locate_dofs_topological(V, 0, wall)
         self.dofs_wall = wall_dofs[wall_dofs < V.dofmap.index_map.size_local]  # owned
-        self.bcs = [fem.dirichletbc(fem.Function(V), fem.locate_dofs_topological(V, fdim, clamp))]
-        dt = fem.Constant(mesh, DT)
-        gamma_h = GAMMA0 * fem.Constant(mesh, 1.0 / NX)
-        n, n_c = ufl.FacetNormal(mesh), fem.Constant(mesh, np.array([-1.0]))
-        x = ufl.SpatialCoordinate(mesh)
+        self.bcs = [fem.dirichletbc(fem.Function(V), fem.locate_dofs_topological(V, 0, clamp))]
+        self.gamma_h = GAMMA0 * fem.Constant(mesh, 1.0 / NX)
+        self.n, self.n_c = ufl.FacetNormal(mesh), fem.Constant(mesh, np.array([-1.0]))
+        self.x_0 = ufl.SpatialCoordinate(mesh)[0]
+        self._forms(fem.Constant(mesh, DT))
+        self._snes(comm, petsc_options)
+        # u0 = 1/2 - x/2, v0 = 0 and M a0 = -A_Theta(u0, .) (no contact at t = 0)
+        self.u.interpolate(lambda x: 0.5 - x[0] / 2)
+        phi = ufl.TestFunction(V)
+        stiffness = ufl.inner(ufl.grad(self.u), ufl.grad(phi)) * self.dx
+        stiffness -= THETA * self.gamma_h * self._sigma_n(self.u) * self._sigma_n(phi) * self.ds
+        self._initial(mesh, self.dx, -stiffness, phi)
 
-        def sigma(u):
-            return ufl.grad(u)  # E = 1
+    def _sigma_n(self, u):
+        """sigma_n(u) = (sigma(u) n) . n_c with sigma(u) = E grad u, E = 1."""
+        return ufl.dot(ufl.dot(ufl.grad(u), self.n), self.n_c)
 
-        def sigma_n(u):
-            return ufl.dot(ufl.dot(sigma(u), n), n_c)
+    def _P(self, u):
+        """P_gamma(u) = u . n_c - g - gamma_h sigma_n(u), with g = x."""
+        return ufl.dot(u, self.n_c) - self.x_0 - self.gamma_h * self._sigma_n(u)
 
-        def P(u):  # P_gamma(u) = u . n_c - g - gamma_h sigma_n(u), g = x
-            return ufl.dot(u, n_c) - x[0] - gamma_h * sigma_n(u)
+    def _forms(self, dt) -> None:
+        """The step's residual and Jacobian, the energies and the contact pressure."""
 
         def positive(y):
             return ufl.conditional(ufl.gt(y, 0), y, 0)
 
-        w, u, v = self.w, self.u, self.v
-        phi = ufl.TestFunction(V)
+        w, u, v, P, gamma_h, dx, ds = (
+            self.w,
+            self.u,
+            self.v,
+            self._P,
+            self.gamma_h,
+            self.dx,
+            self.ds,
+        )
+        phi = ufl.TestFunction(self.V)
         u1 = u + dt * v + dt**2 / 2 * w
         mid = (u + u1) / 2
         force = ufl.conditional(
             ufl.gt(P(u), 0), positive(P(mid)), (positive(P(u)) + positive(P(u1))) / 2
         )
-        test = ufl.dot(phi, n_c) - THETA * gamma_h * sigma_n(phi)
+        test = ufl.dot(phi, self.n_c) - THETA * gamma_h * self._sigma_n(phi)
         F = (
             ufl.inner(w, phi) * dx
-            + ufl.inner(sigma(mid), ufl.grad(phi)) * dx
-            - THETA * gamma_h * sigma_n(mid) * sigma_n(phi) * ds(1)
-            + force / gamma_h * test * ds(1)
+            + ufl.inner(ufl.grad(mid), ufl.grad(phi)) * dx
+            - THETA * gamma_h * self._sigma_n(mid) * self._sigma_n(phi) * ds
+            + force / gamma_h * test * ds
         )
         self.F = fem.form(F)
-        self.J = fem.form(ufl.derivative(F, w, ufl.TrialFunction(V)))
-        energy = 0.5 * ufl.inner(v, v) * dx + 0.5 * ufl.inner(sigma(u), ufl.grad(u)) * dx
-        correction = -THETA / 2 * (gamma_h * sigma_n(u) ** 2 - positive(P(u)) ** 2 / gamma_h)
+        self.J = fem.form(ufl.derivative(F, w, ufl.TrialFunction(self.V)))
+        energy = 0.5 * ufl.inner(v, v) * dx + 0.5 * ufl.inner(ufl.grad(u), ufl.grad(u)) * dx
+        correction = gamma_h * self._sigma_n(u) ** 2 - positive(P(u)) ** 2 / gamma_h
         self.energy = fem.form(energy)
-        self.correction = fem.form(correction * ds(1))
-        self.pressure = fem.form(-positive(P(u)) / gamma_h * ds(1))
+        self.correction = fem.form(-THETA / 2 * correction * ds)
+        self.pressure = fem.form(-positive(P(u)) / gamma_h * ds)
+
+    def _snes(self, comm, petsc_options) -> None:
+        """SNES with the residual and the Jacobian assembled in full at each call."""
         self.A = fem_petsc.create_matrix(self.J)
-        self.b = compat.create_vector(V)
+        self.b, self.x = compat.create_vector(self.V), compat.create_vector(self.V)
         self.snes = PETSc.SNES().create(comm)
         self.snes.setFunction(self._residual, self.b)
         self.snes.setJacobian(self._jacobian, self.A)
@@ -119,12 +138,6 @@ class MinimalBar:
         self.snes.setFromOptions()
         for key in options:
             database.delValue(f"overhead_minimal_{key}")
-        self.x = compat.create_vector(V)
-        # u0 = 1/2 - x/2, v0 = 0 and M a0 = -A_Theta(u0, .) (no contact at t = 0)
-        self.u.interpolate(lambda x: 0.5 - x[0] / 2)
-        stiffness = ufl.inner(sigma(u), ufl.grad(phi)) * dx
-        stiffness -= THETA * gamma_h * sigma_n(u) * sigma_n(phi) * ds(1)
-        self._initial(mesh, dx, -stiffness, phi)
 
     def _initial(self, mesh, dx, rhs, phi) -> None:
         """Solve M a = rhs, a = 0 at the clamped end."""
@@ -211,26 +224,10 @@ def package_loop(comm, t_end: float, path: str, petsc_options=None) -> tuple[flo
     return seconds, rows, simulation
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--repeat", type=int, default=5, help="pairs of loops, in turn")
-    parser.add_argument("--t-end", type=float, default=9.0, help="final time (600 steps)")
-    parser.add_argument("--out", default=os.path.join("out", "overhead"))
-    parser.add_argument(
-        "--factorisation",
-        choices=["package", "petsc"],
-        default="package",
-        help="package: both loops factorise as the package does for this problem (MUMPS's "
-        "LDL^T where PETSc has MUMPS); petsc: both with PETSc's own LU",
-    )
-    args = parser.parse_args(argv)
-    options = None
-    if args.factorisation == "petsc":
-        options = {"pc_type": "lu", "pc_factor_mat_solver_type": "petsc"}
-    comm = MPI.COMM_WORLD
-    if comm.rank == 0:
-        os.makedirs(args.out, exist_ok=True)
-    comm.barrier()
+def measure(comm, args, options) -> tuple[list, list, float]:
+    """``args.repeat`` pairs of loops, in turn: rows (repeat, loop, seconds, steps, Newton
+    iterations, ms per step), the ratios package / minimal, and the largest difference of
+    their histories relative to each column's largest value."""
     records, ratios, difference = [], [], 0.0
     for repeat in range(args.repeat):
         minimal = MinimalBar(comm, args.t_end, options)
@@ -251,35 +248,65 @@ def main(argv=None) -> int:
                 f"({steps} steps), ratio {ratios[-1]:.2f}",
                 flush=True,
             )
+    return records, ratios, difference
+
+
+def write(out: str, records: list, summary: dict) -> None:
+    """``out/overhead.csv`` and ``out/summary.csv``, and the summary printed."""
+    with open(os.path.join(out, "overhead.csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["repeat", "loop", "seconds", "steps", "newton", "ms_per_step"])
+        writer.writerows(records)
+    with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(summary)
+        writer.writerow(summary.values())
+    print(
+        f"median time loop: package {summary['package_median_s']:.3f} s "
+        f"({summary['package_ms_per_step']:.3f} ms a step), minimal "
+        f"{summary['minimal_median_s']:.3f} s ({summary['minimal_ms_per_step']:.3f} ms a "
+        f"step); median ratio {summary['median_ratio']:.2f}; histories agree to "
+        f"{summary['largest_relative_difference']:.1e} of each column's largest value"
+    )
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--repeat", type=int, default=5, help="pairs of loops, in turn")
+    parser.add_argument("--t-end", type=float, default=9.0, help="final time (600 steps)")
+    parser.add_argument("--out", default=os.path.join("out", "overhead"))
+    parser.add_argument(
+        "--factorisation",
+        choices=["package", "petsc"],
+        default="package",
+        help="package: both loops factorise as the package does for this problem (MUMPS's "
+        "LDL^T where PETSc has MUMPS); petsc: both with PETSc's own LU",
+    )
+    args = parser.parse_args(argv)
+    options = None
+    if args.factorisation == "petsc":
+        options = {"pc_type": "lu", "pc_factor_mat_solver_type": "petsc"}
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        os.makedirs(args.out, exist_ok=True)
+    comm.barrier()
+    records, ratios, difference = measure(comm, args, options)
     package = statistics.median(r[2] for r in records if r[1] == "package")
     minimal = statistics.median(r[2] for r in records if r[1] == "minimal")
+    steps = records[0][3]
     summary = {
         "factorisation": args.factorisation,
         "ranks": comm.size,
-        "steps": records[0][3],
+        "steps": steps,
         "package_median_s": package,
         "minimal_median_s": minimal,
-        "package_ms_per_step": 1e3 * package / records[0][3],
-        "minimal_ms_per_step": 1e3 * minimal / records[0][3],
+        "package_ms_per_step": 1e3 * package / steps,
+        "minimal_ms_per_step": 1e3 * minimal / steps,
         "median_ratio": statistics.median(ratios),
         "largest_relative_difference": difference,
     }
     if comm.rank == 0:
-        with open(os.path.join(args.out, "overhead.csv"), "w", newline="") as f:
-            writer = csv.writer(f)
-            writer.writerow(["repeat", "loop", "seconds", "steps", "newton", "ms_per_step"])
-            writer.writerows(records)
-        with open(os.path.join(args.out, "summary.csv"), "w", newline="") as f:
-            writer = csv.writer(f)
-            writer.writerow(summary)
-            writer.writerow(summary.values())
-        print(
-            f"median time loop: package {package:.3f} s "
-            f"({summary['package_ms_per_step']:.3f} ms a step), minimal {minimal:.3f} s "
-            f"({summary['minimal_ms_per_step']:.3f} ms a step); median ratio "
-            f"{summary['median_ratio']:.2f}; histories agree to "
-            f"{difference:.1e} of each column's largest value"
-        )
+        write(args.out, records, summary)
     return 0
 
 

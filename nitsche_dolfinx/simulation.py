@@ -154,8 +154,9 @@ class Simulation:
         self._probes[name] = probe
 
     def contact_pressure(self):
-        """The contact pressure on Gamma_C of the (first) obstacle, a UFL expression of
-        the current state: lambda_h of docs/method.md section 2, or the mixed multiplier."""
+        """The contact pressure of the first contact term (the first obstacle added, or the
+        first half of a contact pair) on its Gamma_C, a UFL expression of the current
+        state: lambda_h of docs/method.md section 2, or the mixed multiplier."""
         return self.stepper.contact_pressure()
 
     def state(self, columns=None) -> dict[str, float]:

@@ -322,8 +322,9 @@ class NitscheStepper(TimeLevels):
         return (v - v_0) / (v_1 - v_0)
 
     def contact_pressure(self):
-        """The contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ of the first
-        obstacle, as a UFL expression on its Gamma_C (docs/method.md section 2)."""
+        """The contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ of the first contact
+        term (an obstacle or a pair's half), as a UFL expression on its Gamma_C
+        (docs/method.md section 2)."""
         return self.problem.contacts[0].pressure(self.u)
 
     def output_fields(self) -> dict:
