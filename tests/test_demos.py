@@ -133,5 +133,7 @@ def test_ball_on_slab_demo_runs_both_contacts(tmp_path):
     assert result.returncode == 0, result.stderr
     history = read_history(str(out / "history.csv"))
     assert list(history)[-2:] == ["momentum_x", "momentum_y"]
-    assert np.diff(history["energy_theta"]).max() < 1e-12 * history["energy_theta"].max()
+    # a step's rise is <F, u^{n+1} - u^n> <= snes_rtol S |du| (at most 7.4e-9 here, measured)
+    # plus twice the round-off of E_Theta (6.3e-11): 7.5e-9 = 1.2e-11 E_Theta
+    assert np.diff(history["energy_theta"]).max() < 1.2e-11 * history["energy_theta"].max()
     assert history["contact_force"][-1] > 0
