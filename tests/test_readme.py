@@ -39,5 +39,6 @@ def test_readme_example_runs(mpi_tmp_path, monkeypatch, capsys):
     # up to 1.07e-11 as the ring falls (measured): 2.2e-11 E_Theta(0)
     assert np.diff(theta).max() < 2.2e-11 * theta[0]
     csv = read_history(os.path.join(mpi_tmp_path, "out", "ring_api", "history.csv"))
-    assert np.allclose(csv["energy"], [r["energy"] for r in history], rtol=1e-15)
+    # history.csv holds repr of the same numbers: bitwise
+    assert np.array_equal(csv["energy"], [r["energy"] for r in history])
     assert "energy lost:" in capsys.readouterr().out or comm.rank != 0

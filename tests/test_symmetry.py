@@ -105,9 +105,12 @@ def test_half_disk_restarts_from_its_checkpoint(mpi_tmp_path):
 
     half(11.0).run(out=out, checkpoint_every=4)
     restarted = half(12.0).run(out=out, restart=True)
-    for name in HALVED:  # bitwise serially; round-off on ranks (two partitions of the mesh)
+    # the same computation serially: bitwise; on ranks the two builds of the mesh may be
+    # partitioned otherwise (dolfinx 0.9), round-off then
+    tolerance = 0.0 if MPI.COMM_WORLD.size == 1 else 1e-12
+    for name in HALVED:
         scale = np.abs(whole[name]).max()
-        assert np.abs(restarted[name] - whole[name]).max() <= 1e-12 * scale, name
+        assert np.abs(restarted[name] - whole[name]).max() <= tolerance * scale, name
 
 
 @pytest.mark.mpi
