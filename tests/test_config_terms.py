@@ -369,8 +369,7 @@ def test_readme_configuration_runs(tmp_path, linear_solver):
 
     With direct solves (lu) the momentum is kept to round-off, a property of the scheme;
     with the default ("auto": conjugate gradients here, each solve stopped at a tenth of
-    Newton's tolerance, docs/method.md section 8) to the 1e-8 relative within which the
-    default's histories follow those of direct solves."""
+    Newton's tolerance, docs/method.md section 8) to that tolerance."""
     import re
 
     text = open(os.path.join(os.path.dirname(os.path.dirname(__file__)), "README.md")).read()
@@ -393,9 +392,15 @@ def test_readme_configuration_runs(tmp_path, linear_solver):
     assert len(touching) > 0 and touching[-1] < len(history) - 5  # released
     free = slice(touching[-1] + 1, None)
     momentum = history["momentum_y"][free]
-    tolerance = 1e-13 if linear_solver == "lu" else 1e-8
+    # A free step changes the momentum by tau e_y . F (M e_y is K's null vector): with lu,
+    # F is round-off, and the momentum's own round-off (2.7e-14, above) rules: 5.4e-14
+    # between two levels, 3.2e-14 of it. With CG, ||F|| <= snes_rtol S / 10 a step, which
+    # bounds the drift by tau |e_y| sum ||F|| = 9.7e-8 of the momentum over the 30 free
+    # steps (measured: 3.9e-9). The rise divides the round-off of two centres of mass
+    # (46 eps sum |M| |u| = 1.4e-14 each) by tau = 0.01: 3.3e-12 of it.
+    tolerance = 1e-13 if linear_solver == "lu" else 1e-7
     assert momentum.min() > 1.0 and np.ptp(momentum) <= tolerance * momentum.max()
     rise = np.diff(history["centre_of_mass_y"][free]) / np.diff(history["t"][free])
     np.testing.assert_allclose(
-        rise, momentum[0] / 2.0, rtol=1e-12 if linear_solver == "lu" else 1e-8
+        rise, momentum[0] / 2.0, rtol=4e-12 if linear_solver == "lu" else 1e-7
     )
