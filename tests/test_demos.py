@@ -98,7 +98,9 @@ def test_two_disks_demo_contract(tmp_path):
     ]  # fmt: skip
     assert "580 DOFs" in result.stdout
     line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
-    assert float(line.split("differs by ")[1].split()[0]) < 1e-10
+    # two computations of the same steps, each to Newton's tolerance: 1e-8 of the force, as
+    # in tests/test_two_bodies.py (measured: 2e-12)
+    assert float(line.split("differs by ")[1].split()[0]) < 1e-8
     times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
     assert times[-1] == pytest.approx(2.0)
 
