@@ -52,7 +52,8 @@ def assert_one_line_error(result, named: str, status: int = 2) -> None:
 def assert_same_history(a: dict, b: dict, tolerance: float = 0.0) -> float:
     """The largest difference of two histories, relative to each column's largest value:
     bitwise by default, for two runs of the same computation (the same code, inputs and
-    partition: a restart against an uninterrupted run); ``tolerance`` otherwise."""
+    partition: a restart from a level of the run's grid against an uninterrupted run);
+    ``tolerance`` otherwise."""
     assert list(a) == list(b)
     assert len(a["t"]) == len(b["t"])
     worst = 0.0

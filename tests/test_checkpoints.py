@@ -299,12 +299,22 @@ def test_history_columns_may_be_added_on_restart_not_left_out(tmp_path):
     for name in ("momentum_y", "centre_of_mass_y"):
         assert np.all(np.isnan(history[name][:4])) and np.all(np.isnan(returned[name][:4]))
     for name, first in (("energy", 0), ("momentum_y", 4), ("centre_of_mass_y", 4)):
-        # a restart is the same computation as the uninterrupted run: bitwise
-        assert np.array_equal(history[name][first:], reference[name][first:]), name
+        difference = np.abs(history[name][first:] - reference[name][first:]).max()
+        assert difference <= EXTENDED_RESTART * np.abs(reference[name]).max(), name
     assert "history columns" in open(os.path.join(out, "restarts.log")).read()
 
 
 # -- the command line and the bar demo continue too ---------------------------------------------
+
+#: A run extended past its t_end by a restart against a run straight to the new t_end. Not
+#: the same computation: the restart goes on from t_end itself, 0.3 in
+#: test_history_columns_may_be_added_on_restart_not_left_out, not from the grid level
+#: 3 x 0.1 = 0.30000000000000004 where the straight run is, and, the level being off its
+#: grid, takes 0.4 - 0.3 = 0.10000000000000003 for its first step instead of tau (measured:
+#: 3.6e-16 of the energy there, 2 ulps; bitwise where k tau is t_end, as for the ring and
+#: the bar). A step perturbed by an ulp of tau differs by about cond(J) eps = 2e-15 of the
+#: state (the disk: cond(J) = 9), well below the 1e-12 kept here.
+EXTENDED_RESTART = 1e-12
 
 
 def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
@@ -325,7 +335,8 @@ def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
     assert straight.returncode == 0, straight.stderr
     history = read_history(os.path.join(out, "history.csv"))
     assert len(history["t"]) == 21 and np.all(np.diff(history["t"]) > 0)
-    assert_same_history(read_history(str(tmp_path / "straight" / "history.csv")), history)
+    straight = read_history(str(tmp_path / "straight" / "history.csv"))
+    assert_same_history(straight, history, EXTENDED_RESTART)
 
 
 def test_bar_demo_restarts(tmp_path):
@@ -340,4 +351,5 @@ def test_bar_demo_restarts(tmp_path):
     assert_same_history(
         read_history(str(tmp_path / "straight" / "history.csv")),
         read_history(os.path.join(out, "history.csv")),
+        EXTENDED_RESTART,
     )
