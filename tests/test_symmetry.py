@@ -63,7 +63,7 @@ def assert_halved(full, half, tolerance=2e-8, momentum=True):
     assert np.abs(full["momentum_y"] - 2 * half["momentum_y"]).max() <= tolerance * momentum
     # the full disk's mesh and steps are mirror images of themselves, Newton's iterates too:
     # only round-off breaks the symmetry, about cond(J) eps = 2e-15 of the state a step
-    # (cond(J) = 9), 1e-13 in 48 steps (measured: 2.1e-14)
+    # (cond(J) = 9), 1e-13 in 48 steps (measured: 2.2e-14)
     assert np.abs(full["momentum_x"]).max() <= 1e-11 * momentum
 
 
