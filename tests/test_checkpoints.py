@@ -38,12 +38,21 @@ from nitsche_dolfinx.signals import RunInterrupted
 
 
 def solver_of(ranks: int) -> list[str]:
-    """The demo's linear solver for a check to 1e-12 of a restart against a second run.
-    Serially the default. On 2 ranks a direct solve: dolfinx 0.9 may partition the same
-    mesh otherwise in two runs (the ranks' cell counts swap), so the two runs differ by
-    round-off, which a direct solve keeps at round-off and the default's inexact CG solves
-    raise to their tolerance (6e-13 measured on the disk, docs/method.md section 8)."""
+    """The demo's linear solver for a check of a restart against a second run: serially
+    the default, and the runs are the same computation (compared bitwise). On 2 ranks a
+    direct solve: dolfinx 0.9 may partition the same mesh otherwise in two runs (the
+    ranks' cell counts swap), so the two runs differ by round-off, which a direct solve
+    keeps at round-off and the default's inexact CG solves raise to their tolerance (6e-13
+    measured on the disk, docs/method.md section 8)."""
     return [] if ranks == 1 else ["--linear-solver", "lu"]
+
+
+#: A restart against a second run on 2 ranks (:func:`solver_of`): besides the partitions,
+#: MUMPS's factorisation on 2 ranks varies by round-off from one run to the next (its
+#: dynamic scheduling; measured: 6 of 398 repeated solves of one system differ, and two
+#: identical runs of the disk by 3.8e-14). Each step's solve then differs by about
+#: cond(J) eps = 2e-15 of the state (cond(J) = 9 on this disk); 400 steps: 8e-13.
+TWO_RANKS_RESTART = 1e-12
 
 
 def interrupt_disk(out: str, ranks: int, after_step: int = 20) -> tuple[subprocess.Popen, str]:
@@ -108,6 +117,7 @@ def check_interrupted_then_restart(tmp_path, ranks: int) -> float:
     difference = assert_same_history(
         read_history(str(tmp_path / "reference" / "history.csv")),
         read_history(os.path.join(out, "history.csv")),
+        0.0 if ranks == 1 else TWO_RANKS_RESTART,
     )
     times = assert_xdmf_readable(os.path.join(out, "solution.xdmf"), last_time=40.0)
     assert times == pytest.approx(np.arange(0.0, 40.05, 1.0))
@@ -161,8 +171,12 @@ def test_restart_after_a_hard_kill_continues_from_the_last_periodic_checkpoint(m
     comm.barrier()
     history = read_history(os.path.join(out, "history.csv"))
     assert len(records) == len(history["t"]) == 121
-    assert_same_history(read_history(os.path.join(reference, "history.csv")), history)
-    assert_same_history(columns(records, history.columns), history)  # run: the whole history
+    # the same computation serially: bitwise; on ranks the two builds of the mesh may be
+    # partitioned otherwise (dolfinx 0.9), round-off then. The history returned is the one
+    # written (repr: the same numbers).
+    tolerance = 0.0 if comm.size == 1 else 1e-12
+    assert_same_history(read_history(os.path.join(reference, "history.csv")), history, tolerance)
+    assert_same_history(columns(records, history.columns), history)  # run returns the whole history
     if comm.rank == 0:
         assert_xdmf_readable(os.path.join(out, "solution.xdmf"), last_time=8.5)
         later = assert_xdmf_readable(os.path.join(out, "solution-from-step80.xdmf"), 12.0)
@@ -286,11 +300,21 @@ def test_history_columns_may_be_added_on_restart_not_left_out(tmp_path):
         assert np.all(np.isnan(history[name][:4])) and np.all(np.isnan(returned[name][:4]))
     for name, first in (("energy", 0), ("momentum_y", 4), ("centre_of_mass_y", 4)):
         difference = np.abs(history[name][first:] - reference[name][first:]).max()
-        assert difference <= 1e-12 * np.abs(reference[name]).max(), name
+        assert difference <= EXTENDED_RESTART * np.abs(reference[name]).max(), name
     assert "history columns" in open(os.path.join(out, "restarts.log")).read()
 
 
 # -- the command line and the bar demo continue too ---------------------------------------------
+
+#: A run extended past its t_end by a restart against a run straight to the new t_end. Not
+#: the same computation: the restart goes on from t_end itself, 0.3 in
+#: test_history_columns_may_be_added_on_restart_not_left_out, not from the grid level
+#: 3 x 0.1 = 0.30000000000000004 where the straight run is, and, the level being off its
+#: grid, takes 0.4 - 0.3 = 0.10000000000000003 for its first step instead of tau (measured:
+#: 3.6e-16 of the energy there, 2 ulps; bitwise where k tau is t_end, as for the ring and
+#: the bar). A step perturbed by an ulp of tau differs by about cond(J) eps = 2e-15 of the
+#: state (the disk: cond(J) = 9), well below the 1e-12 kept here.
+EXTENDED_RESTART = 1e-12
 
 
 def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
@@ -311,7 +335,8 @@ def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
     assert straight.returncode == 0, straight.stderr
     history = read_history(os.path.join(out, "history.csv"))
     assert len(history["t"]) == 21 and np.all(np.diff(history["t"]) > 0)
-    assert_same_history(read_history(str(tmp_path / "straight" / "history.csv")), history)
+    straight = read_history(str(tmp_path / "straight" / "history.csv"))
+    assert_same_history(straight, history, EXTENDED_RESTART)
 
 
 def test_bar_demo_restarts(tmp_path):
@@ -326,4 +351,5 @@ def test_bar_demo_restarts(tmp_path):
     assert_same_history(
         read_history(str(tmp_path / "straight" / "history.csv")),
         read_history(os.path.join(out, "history.csv")),
+        EXTENDED_RESTART,
     )

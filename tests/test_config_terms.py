@@ -133,7 +133,7 @@ def test_half_disk_configured_is_the_api_run(mpi_tmp_path):
     """The half disk read from a .msh file without boundary groups, its facets tagged by
     [[facet_tag]] selectors and held by a [[dirichlet]] component: its tags measure as
     disks.py's and its history, point probes and new columns included, is the API run's
-    to round-off."""
+    to Newton's tolerance."""
     comm = MPI.COMM_WORLD
     symmetric_disks(True, comm=comm, msh=os.path.join(mpi_tmp_path, "half_disk.msh"))
     config, configured_run = configured(mpi_tmp_path, half_disk())
@@ -146,12 +146,18 @@ def test_half_disk_configured_is_the_api_run(mpi_tmp_path):
     history, expected = configured_run.run(columns=columns), api.run(columns=columns)
     assert history["contact_force"].max() > 1.0  # in contact
     assert abs(history["v_x_side"][-1]) > 1e-5  # the side moves out once in contact
+    # Two computations: the mesh read back from the .msh file (16 digits) has its nodes up to
+    # 1 ulp off the API's. Newton solves each step to snes_rtol = 1e-10 of its equation's
+    # scale S, which fixes the step's accelerations to 2 snes_rtol S ||J^-1|| <= 2.0e-9 of
+    # their size (measured on this half disk); the velocities sum them (sum tau |a| is about
+    # 2 |v|: the fall, then the bounce) and the energies double that: 8e-9, so 1e-8
+    # (measured on three BLAS kernels: 9.1e-13).
     for name in columns:
         if name == "step_seconds":
             continue
-        # the x velocity at the side: round-off on the scale of the falling speed, 1
+        # the x velocity at the side: on the scale of the falling speed, 1
         scale = 1.0 if name == "v_x_side" else max(np.abs(expected[name]).max(), 1e-300)
-        assert np.abs(history[name] - expected[name]).max() <= 1e-12 * scale, name
+        assert np.abs(history[name] - expected[name]).max() <= 1e-8 * scale, name
     assert np.abs(history["momentum_x"]).max() > 1e-3  # the half is held along x only
     assert np.array_equal(history["contact_force_1"], history["contact_force"])
 
@@ -364,8 +370,7 @@ def test_readme_configuration_runs(tmp_path, linear_solver):
 
     With direct solves (lu) the momentum is kept to round-off, a property of the scheme;
     with the default ("auto": conjugate gradients here, each solve stopped at a tenth of
-    Newton's tolerance, docs/method.md section 8) to the 1e-8 relative within which the
-    default's histories follow those of direct solves."""
+    Newton's tolerance, docs/method.md section 8) to that tolerance."""
     import re
 
     usage = os.path.join(os.path.dirname(os.path.dirname(__file__)), "docs", "usage.md")
@@ -379,16 +384,24 @@ def test_readme_configuration_runs(tmp_path, linear_solver):
     ), simulation.solver_description
     history = simulation.run(columns=history_columns(config, simulation))
     first = history[0]
+    # sums over the 306 dofs of M v (or M u): 38 terms a row, then the rows summed in pairs,
+    # so up to (38 + log2 306) eps sum |M| |v| = 2.7e-14 off (sum |M| e_y = 2.7)
     for name, value in [("u_y_corner", 0.01), ("u_y_top", 0.01), ("centre_of_mass_y", 0.51),
                         ("momentum_y", -2.0), ("momentum_x", 0.0)]:  # fmt: skip
-        assert first[name] == pytest.approx(value, abs=1e-14), name
+        assert first[name] == pytest.approx(value, abs=3e-14), name
     touching = np.flatnonzero(history["contact_force"] > 0)
     assert len(touching) > 0 and touching[-1] < len(history) - 5  # released
     free = slice(touching[-1] + 1, None)
     momentum = history["momentum_y"][free]
-    tolerance = 1e-13 if linear_solver == "lu" else 1e-8
+    # A free step changes the momentum by tau e_y . F (M e_y is K's null vector): with lu,
+    # F is round-off, and the momentum's own round-off (2.7e-14, above) rules: 5.4e-14
+    # between two levels, 3.2e-14 of it. With CG, ||F|| <= snes_rtol S / 10 a step, which
+    # bounds the drift by tau |e_y| sum ||F|| = 9.7e-8 of the momentum over the 30 free
+    # steps (measured: 3.9e-9). The rise divides the round-off of two centres of mass
+    # (46 eps sum |M| |u| = 1.4e-14 each) by tau = 0.01: 3.3e-12 of it.
+    tolerance = 1e-13 if linear_solver == "lu" else 1e-7
     assert momentum.min() > 1.0 and np.ptp(momentum) <= tolerance * momentum.max()
     rise = np.diff(history["centre_of_mass_y"][free]) / np.diff(history["t"][free])
     np.testing.assert_allclose(
-        rise, momentum[0] / 2.0, rtol=1e-12 if linear_solver == "lu" else 1e-8
+        rise, momentum[0] / 2.0, rtol=4e-12 if linear_solver == "lu" else 1e-7
     )

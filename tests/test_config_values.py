@@ -156,7 +156,9 @@ def test_disk_falls_on_a_circle_as_on_the_plane(tmp_path):
         _, simulation = configured(folder, DISK.format(t_end=12.0, lift=5.0, obstacle=obstacle))
         history = simulation.run()
         first[name] = history["t"][np.argmax(history["contact_force"] > 0)]
-        assert np.diff(history["energy_theta"]).max() <= 1e-12 * history["energy_theta"][0]
+        # a step's rise of E_Theta is <F, u^{n+1} - u^n> <= snes_rtol S |du|: at most 3.0e-8
+        # here (measured; tau = 0.5), plus twice its round-off (3.8e-11): 4.8e-11 E_Theta(0)
+        assert np.diff(history["energy_theta"]).max() <= 5e-11 * history["energy_theta"][0]
     assert first["circle"] == first["plane"] and 10.0 <= first["plane"] <= 10.5
 
 

@@ -121,9 +121,17 @@ def shortened(name: str, replace: dict, folder: str) -> str:
     return path
 
 
-def assert_same_columns(a, b) -> float:
+#: Columns that a TOML file computes otherwise than its demo: the bars' mean velocities, by
+#: a [[probe]] with the problem's quadrature (2 points a cell) and by the demo's own (1):
+#: sums of 60 and 30 terms, and of as many weights for the length, each up to n eps/2 of
+#: max |v| off: 2e-14 of the column's largest value (measured: 1.1e-15).
+OTHERWISE_COMPUTED = {"v_left": 2e-14, "v_right": 2e-14}
+
+
+def assert_same_columns(a, b, tolerance: float = 0.0) -> float:
     """The same columns in the same order and the same values (but the wall time): the
-    largest difference relative to each column's largest value, at most 1e-13."""
+    largest difference relative to each column's largest value, bitwise by default (the
+    same computation) but in :data:`OTHERWISE_COMPUTED`."""
     assert a.columns == b.columns
     worst = 0.0
     for column in a.columns:
@@ -131,7 +139,10 @@ def assert_same_columns(a, b) -> float:
             continue
         scale = max(np.abs(b[column]).max(), 1e-300)
         difference = np.abs(a[column] - b[column]).max() / scale
-        assert difference <= 1e-13, (column, difference)
+        assert difference <= max(tolerance, OTHERWISE_COMPUTED.get(column, 0.0)), (
+            column,
+            difference,
+        )
         worst = max(worst, difference)
     return worst
 
@@ -170,7 +181,13 @@ def test_configuration_reproduces_demo_in_parallel(mpi_tmp_path, name):
     assert cli(["run", config, "--quiet", "--out", os.path.join(mpi_tmp_path, "toml")]) == 0
     comm.barrier()
     demo = read_history(os.path.join(mpi_tmp_path, "demo", run_folder, "history.csv"))
-    assert_same_columns(read_history(os.path.join(mpi_tmp_path, "toml", "history.csv")), demo)
+    # bitwise serially; on ranks the two builds of the mesh may be partitioned otherwise
+    # (dolfinx 0.9), and MUMPS's factorisation on ranks varies by round-off from one run to
+    # the next (its dynamic scheduling): round-off then
+    tolerance = 0.0 if comm.size == 1 else 1e-13
+    assert_same_columns(
+        read_history(os.path.join(mpi_tmp_path, "toml", "history.csv")), demo, tolerance
+    )
 
 
 def test_every_demo_has_a_configuration():

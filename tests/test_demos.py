@@ -189,7 +189,9 @@ def test_two_disks_demo_contract(tmp_path):
     ]  # fmt: skip
     assert "580 DOFs" in result.stdout
     line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
-    assert float(line.split("differs by ")[1].split()[0]) < 1e-10
+    # two computations of the same steps, each to Newton's tolerance: 1e-8 of the force, as
+    # in tests/test_two_bodies.py (measured: 2e-12)
+    assert float(line.split("differs by ")[1].split()[0]) < 1e-8
     times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
     assert times[-1] == pytest.approx(2.0)
 
@@ -224,5 +226,7 @@ def test_ball_on_slab_demo_runs_both_contacts(tmp_path):
     assert result.returncode == 0, result.stderr
     history = read_history(str(out / "history.csv"))
     assert history.columns[-2:] == ["momentum_x", "momentum_y"]
-    assert np.diff(history["energy_theta"]).max() < 1e-12 * history["energy_theta"].max()
+    # a step's rise is <F, u^{n+1} - u^n> <= snes_rtol S |du| (at most 7.4e-9 here, measured)
+    # plus twice the round-off of E_Theta (6.3e-11): 7.5e-9 = 1.2e-11 E_Theta
+    assert np.diff(history["energy_theta"]).max() < 1.2e-11 * history["energy_theta"].max()
     assert history["contact_force"][-1] > 0

@@ -45,10 +45,11 @@ def read_series(path: str) -> dict[str, dict[float, tuple[np.ndarray, np.ndarray
     return series
 
 
-def assert_same_fields(series: dict, reference: dict, tolerance: float = 1e-10) -> float:
+def assert_same_fields(series: dict, reference: dict, tolerance: float = 0.0) -> float:
     """Every level of ``series`` is a level of ``reference`` with the same values at the same
     nodes (matched by their coordinates), up to ``tolerance`` times the largest value of the
-    field. Returns the largest relative difference."""
+    field: bitwise by default, for the same computation (a restart on the same partition).
+    Returns the largest relative difference."""
     assert set(series) == set(reference)
     worst = 0.0
     for name, levels in series.items():
@@ -207,7 +208,15 @@ def test_restart_on_two_and_on_one_rank_appends_fields_node_by_node(tmp_path):
     """A 2-rank run of the disk to t = 10.4 is continued to t = 12 by another ``mpirun -n 2``
     (folder a), and by one rank to t = 11.2 then two ranks to t = 12 (folder b): each
     solution.xdmf holds every level of the uninterrupted 2-rank run, equal to it node by
-    node to 1e-10."""
+    node to Newton's tolerance.
+
+    Two computations: b's steps from 10.4 to 11.2 on one rank (and any run on another
+    partition: dolfinx 0.9 may partition the mesh otherwise from one mpirun to the next).
+    Newton solves each step to snes_rtol = 1e-10 of its equation's scale S, which fixes a
+    step's accelerations to 2 snes_rtol S ||J^-1|| <= 7.0e-10 of their size (this disk
+    in contact, tau = 0.1: measured); from 10.4 on they add up in the velocities and the contact
+    pressure, sum tau |a| being about |v| in contact: 1.4e-9, so 2e-9 (measured: 5.8e-15).
+    """
     reference, a, b = (str(tmp_path / name) for name in ("reference", "a", "b"))
     disk_runs(f"{reference},12", f"{a},10.4", ranks=2)
     shutil.copytree(a, b)
@@ -218,6 +227,6 @@ def test_restart_on_two_and_on_one_rank_appends_fields_node_by_node(tmp_path):
     for out, restarts in ((a, 1), (b, 2)):
         series = read_series(os.path.join(out, "solution.xdmf"))
         assert times_of(series) == pytest.approx(times_of(expected), abs=1e-9)
-        assert_same_fields(series, expected)
+        assert_same_fields(series, expected, 2e-9)
         text = open(os.path.join(out, "solution.xdmf")).read()
         assert len(re.findall(r'<Grid Name="mesh-restart\d+"', text)) == restarts

@@ -53,7 +53,10 @@ def test_first_contact_time(ball):
 
 def test_hybrid_energy_theta_never_increases(ball):
     E_theta = ball["energy_theta"]
-    assert np.diff(E_theta).max() <= 1e-12 * abs(E_theta[0])
+    # a step's rise is <F, u^{n+1} - u^n> <= snes_rtol S |du| (at most 1.24e-7 over this run,
+    # measured) plus twice the round-off of E_Theta, eps/2 (|u|^T |K| |u| + |v|^T |M| |v|)
+    # (at most 1.2e-8): 1.5e-7 = 8.9e-12 E_Theta(0)
+    assert np.diff(E_theta).max() <= 9e-12 * abs(E_theta[0])
 
 
 def test_hybrid_energy_drift_under_two_percent(ball):
@@ -127,9 +130,9 @@ def test_contact_jacobian_assembled_only_in_contact():
     assert counts[-1, 0] > counts[95, 0] + 10  # one per Newton iteration in contact
     reference, _ = _disk_steps(120, activity=False)
     assert reference.solver.facet_jacobian_assemblies == reference.solver.petsc.jacobian_evaluations
-    for name in ("u", "v"):
+    for name in ("u", "v"):  # the same Jacobians, so the same computation: bitwise
         ours, theirs = getattr(simulation, name).x.array, getattr(reference, name).x.array
-        assert np.allclose(ours, theirs, rtol=0, atol=1e-12 * np.abs(theirs).max())
+        assert np.array_equal(ours, theirs), name
 
 
 @pytest.mark.mpi

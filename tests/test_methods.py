@@ -129,9 +129,12 @@ def test_mixed_method_restarts_through_the_driver(mpi_tmp_path):
     )
     assert len(history) == len(reference) == 101
     assert reference["sigma_contact"].min() < 0  # the run goes through contact
+    # the same computation serially: bitwise; on ranks with MUMPS, whose factorisation on
+    # several ranks varies by round-off from one run to the next (its dynamic scheduling)
+    tolerance = 0.0 if MPI.COMM_WORLD.size == 1 else 1e-12
     for name in BAR_COLUMNS:
         scale = max(np.abs(reference[name]).max(), 1e-300)
-        assert np.abs(history[name] - reference[name]).max() <= 1e-12 * scale, name
+        assert np.abs(history[name] - reference[name]).max() <= tolerance * scale, name
     written = read_history(os.path.join(out, "history.csv"))
     assert np.array_equal(written["t"], reference["t"])
     root = ElementTree.parse(os.path.join(out, "solution.xdmf")).getroot()

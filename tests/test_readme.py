@@ -35,9 +35,13 @@ def test_readme_example_runs(mpi_tmp_path, monkeypatch, capsys):
     lost = 1 - history[-1]["energy"] / history[0]["energy"]
     assert 0 < lost < 0.03  # the hybrid scheme loses energy only at the impact and release
     theta = np.array([r["energy_theta"] for r in history])
-    assert np.diff(theta).max() < 1e-12 * theta[0]
+    # a step's rise is <F, u^{n+1} - u^n> (below 6.6e-13 here: Newton's steps end nearly
+    # exact) plus twice the round-off of E_Theta, eps/2 (|u|^T |K| |u| + |v|^T |M| |v|),
+    # up to 1.07e-11 as the ring falls (measured): 2.2e-11 E_Theta(0)
+    assert np.diff(theta).max() < 2.2e-11 * theta[0]
     csv = read_history(os.path.join(mpi_tmp_path, "out", "ring_api", "history.csv"))
-    assert np.allclose(csv["energy"], [r["energy"] for r in history], rtol=1e-15)
+    # history.csv holds repr of the same numbers: bitwise
+    assert np.array_equal(csv["energy"], [r["energy"] for r in history])
     assert "energy lost:" in capsys.readouterr().out or comm.rank != 0
 
 

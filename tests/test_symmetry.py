@@ -1,7 +1,8 @@
 """Symmetry conditions (one component of the displacement prescribed) against a known truth:
 half of a mirror-symmetric disk, held by u_x = 0 on its cut, has the full disk's history,
-its energies, contact force and area halved (to 1e-11; measured 1e-13), with every scheme
-and method, serially and on 2 ranks, through a restart and with contact between bodies."""
+its energies, contact force and area halved (to Newton's tolerance, 2e-8; measured 2e-12),
+with every scheme and method, serially and on 2 ranks, through a restart and with contact
+between bodies."""
 
 import numpy as np
 import pytest
@@ -37,10 +38,18 @@ def impact_run(scheme, half: bool, t_end=12.0, dt=0.25, comm=MPI.COMM_WORLD, **o
     return history
 
 
-def assert_halved(full, half, tolerance=1e-11, momentum=True):
+def assert_halved(full, half, tolerance=2e-8, momentum=True):
     """The half disk's sums are half the full disk's, its largest penetration and Newton
     iterations the same; the full disk has no momentum along x (``momentum``: and half of
-    the momentum along y)."""
+    the momentum along y).
+
+    The half and the full disk are two computations of the same steps (other meshes,
+    numberings, Dirichlet rows), each solved by Newton to snes_rtol = 1e-10 of its
+    equation's scale S: that fixes a step's accelerations to 2 snes_rtol S ||J^-1||, at
+    most 2.0e-9 of their size (3.3e-9 with penalty; measured on these disks, tau = 0.25);
+    the velocities sum them (sum tau |a| is about 2 |v|: the fall, then the bounce) and
+    the energies double that: 1.3e-8, so 2e-8 (measured on three BLAS kernels: 2e-12).
+    """
     assert full["contact_force"].max() > 1.0  # in contact
     for name in HALVED:
         scale = np.abs(full[name]).max()
@@ -52,7 +61,10 @@ def assert_halved(full, half, tolerance=1e-11, momentum=True):
         return
     momentum = np.abs(full["momentum_y"]).max()
     assert np.abs(full["momentum_y"] - 2 * half["momentum_y"]).max() <= tolerance * momentum
-    assert np.abs(full["momentum_x"]).max() <= tolerance * momentum
+    # the full disk's mesh and steps are mirror images of themselves, Newton's iterates too:
+    # only round-off breaks the symmetry, about cond(J) eps = 2e-15 of the state a step
+    # (cond(J) = 9), 1e-13 in 48 steps (measured: 2.2e-14)
+    assert np.abs(full["momentum_x"]).max() <= 1e-11 * momentum
 
 
 @pytest.mark.parametrize(
@@ -93,9 +105,12 @@ def test_half_disk_restarts_from_its_checkpoint(mpi_tmp_path):
 
     half(11.0).run(out=out, checkpoint_every=4)
     restarted = half(12.0).run(out=out, restart=True)
-    for name in HALVED:  # bitwise serially; round-off on ranks (two partitions of the mesh)
+    # the same computation serially: bitwise; on ranks the two builds of the mesh may be
+    # partitioned otherwise (dolfinx 0.9), round-off then
+    tolerance = 0.0 if MPI.COMM_WORLD.size == 1 else 1e-12
+    for name in HALVED:
         scale = np.abs(whole[name]).max()
-        assert np.abs(restarted[name] - whole[name]).max() <= 1e-12 * scale, name
+        assert np.abs(restarted[name] - whole[name]).max() <= tolerance * scale, name
 
 
 @pytest.mark.mpi
