@@ -98,4 +98,8 @@ class TimeLevels:
             self.time_origin, self.grid_index = 0.0, step_index
         else:
             self.time_origin, self.grid_index = t, 0
-        self._on_grid = t == self.time_origin + self.grid_index * self.dt
+        if self.time_origin + self.grid_index * self.dt > t + _SNAP * self.dt:
+            self.grid_index -= 1  # a short last step reached t_end before its grid level
+        # t_end of the run saved is the grid level k tau but for round-off: on the grid, so
+        # that an extended run steps tau from there as a run straight to the new t_end does
+        self._on_grid = abs(t - self.time_origin - self.grid_index * self.dt) <= _SNAP * self.dt
