@@ -70,7 +70,7 @@ from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
 from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, latex_number
+from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, method_title
 from nitsche_dolfinx.reports import friction_summary, runs_table, steps_text, written_to
 from nitsche_dolfinx.shapes import check_body_mesh
 
@@ -184,11 +184,10 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
         friction_summary(history, args.mu)
     print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
-        title = (
-            rf"{body}, Nitsche $\Theta = {args.nitsche_theta:g}$, "
-            rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, "
-            rf"$h = {args.mesh_size:g}$, $\tau = {latex_number(args.dt)}$"
-        )
+        title = method_title(
+            body, args.nitsche_theta, args.gamma0, degree=args.degree, h=f"{args.mesh_size:g}",
+            dt=args.dt,
+        )  # fmt: skip
         labels = [label for _, label, _, _ in runs]
         colours = [SCHEME_COLOURS[name] for name in schemes]
         energy_figure([run[0] for run in runs], labels, colours, title, f"{args.out}/energy.png")

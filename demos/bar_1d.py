@@ -70,7 +70,7 @@ from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES, require
-from nitsche_dolfinx.plotting import bar_figure, latex_number
+from nitsche_dolfinx.plotting import bar_figure, method_title
 from nitsche_dolfinx.reports import bar_summary, written_to
 
 # Names of the schemes in the figure and the summary
@@ -180,11 +180,10 @@ def main(argv: list[str] | None = None) -> None:
     bar_summary(histories, labels, args.dt)
     print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
-        title = (
-            rf"1D bouncing bar, Nitsche $\Theta = {args.nitsche_theta:g}$, "
-            rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}, "
-            rf"$h = {latex_number(1 / args.nx)}$, $\tau = {latex_number(args.dt)}$"
-        )
+        title = method_title(
+            "1D bouncing bar", args.nitsche_theta, args.gamma0, degree=args.degree,
+            h=1 / args.nx, dt=args.dt,
+        )  # fmt: skip
         bar_figure(histories, labels, title, os.path.join(args.out, "bar_1d.png"), args.t_end)
 
 

@@ -64,6 +64,20 @@ def latex_number(x: float) -> str:
     return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
+def method_title(subject: str, theta: float, gamma0: float, **discretisation) -> str:
+    """A figure's title: ``subject``, the Nitsche parameters, then the ``discretisation``
+    given (``degree``, ``h``, ``dt``: numbers, or LaTeX for ``h``)."""
+    parts = [rf"Nitsche $\Theta = {theta:g}$", rf"$\gamma_0 = {latex_number(gamma0)}$"]
+    if discretisation.get("degree") is not None:
+        parts.append(f"P{discretisation['degree']}")
+    for name, symbol in (("h", "h"), ("dt", r"\tau")):
+        value = discretisation.get(name)
+        if value is not None:
+            value = value if isinstance(value, str) else latex_number(value)
+            parts.append(rf"${symbol} = {value}$")
+    return f"{subject}: " + ", ".join(parts)
+
+
 #: A colour per time scheme (:data:`~nitsche_dolfinx.schemes.SCHEMES`), the same in every
 #: figure that compares schemes.
 SCHEME_COLOURS = {
