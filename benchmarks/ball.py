@@ -382,7 +382,20 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> None:
+def serial_and_two_ranks() -> list[dict]:
+    """The rows of this command's flags (but --all) run serially and on 2 ranks."""
+    rows = []
+    forwarded = [a for a in sys.argv[1:] if a != "--all"]
+    for ranks in (1, 2):
+        command = [sys.executable, os.path.abspath(__file__), *forwarded, "--json"]
+        if ranks > 1:
+            command = ["mpirun", "-n", str(ranks), *command]
+        result = run_command(command)
+        rows += [json.loads(line) for line in result.stdout.splitlines() if line[:1] == "{"]
+    return rows
+
+
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mesh-sizes", type=float, nargs="+", default=[8.0, 6.0, 4.5])
     parser.add_argument("--t-end", type=float, default=40.0)
@@ -411,7 +424,11 @@ def main() -> None:
         help="the straightforward loop: re-assemble and re-factorise at every Newton iteration",
     )
     parser.add_argument("--json", action="store_true", help="print the rows as JSON lines")
-    args = parser.parse_args()
+    return parser
+
+
+def main() -> None:
+    args = _parser().parse_args()
 
     if args.scaling_row:  # one row of the scaling mode, in this process
         row = measure_scaling(args.mesh_sizes[0], args.t_end, args.linear_solver, args.scheme)
@@ -425,15 +442,7 @@ def main() -> None:
         scaling(args)
         return
     if args.all:
-        rows = []
-        forwarded = [a for a in sys.argv[1:] if a != "--all"]
-        for ranks in (1, 2):
-            command = [sys.executable, os.path.abspath(__file__), *forwarded, "--json"]
-            if ranks > 1:
-                command = ["mpirun", "-n", str(ranks), *command]
-            result = run_command(command)
-            rows += [json.loads(line) for line in result.stdout.splitlines() if line[:1] == "{"]
-        print(table(rows))
+        print(table(serial_and_two_ranks()))
         return
 
     PETSc.Log.begin()
