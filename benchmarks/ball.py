@@ -357,6 +357,11 @@ def plot_scaling(rows: list[dict], path: str) -> None:
     plt.close(figure)
 
 
+def _milliseconds(seconds: float | None) -> str:
+    """A table cell: the time in ms, or "-" for a run without such steps."""
+    return "-" if seconds is None else f"{1e3 * seconds:.1f}"
+
+
 def table(rows: list[dict]) -> str:
     """The Markdown table of the benchmark."""
     lines = [
@@ -374,7 +379,7 @@ def table(rows: list[dict]) -> str:
             f"| {row['ranks']} | {row['mesh_size']:g} | {row['dofs']} | {row['steps']} "
             f"| {row['newton']:.2f} | {row['loop_seconds']:.2f} "
             f"| {1e3 * row['median_step']:.1f} "
-            f"| {1e3 * contact:.1f} | {1e3 * linear:.1f} | {ratio} | {means} "
+            f"| {_milliseconds(contact)} | {_milliseconds(linear)} | {ratio} | {means} "
             f"| {row['assembly_seconds']:.2f} / {row['solve_seconds']:.2f} / "
             f"{row['other_seconds']:.2f} | {row['factorisations']} "
             f"| {row['peak_memory_mb']:.0f} |"
