@@ -70,7 +70,7 @@ from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
 from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, method_title
+from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, figure_title
 from nitsche_dolfinx.reports import friction_summary, runs_table, steps_text, written_to
 from nitsche_dolfinx.shapes import check_body_mesh
 
@@ -184,10 +184,9 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
         friction_summary(history, args.mu)
     print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
-        title = method_title(
-            body, args.nitsche_theta, args.gamma0, degree=args.degree, h=f"{args.mesh_size:g}",
-            dt=args.dt,
-        )  # fmt: skip
+        title = figure_title(
+            body, args.nitsche_theta, args.gamma0, args.degree, f"{args.mesh_size:g}", args.dt
+        )
         labels = [label for _, label, _, _ in runs]
         colours = [SCHEME_COLOURS[name] for name in schemes]
         energy_figure([run[0] for run in runs], labels, colours, title, f"{args.out}/energy.png")

@@ -42,7 +42,7 @@ from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import written_to
 from nitsche_dolfinx.shapes import check_body_mesh
 from nitsche_dolfinx.twobody import ball_on_slab_problem
@@ -101,11 +101,10 @@ def main(argv: list[str] | None = None) -> None:
     )
     print(written_to(args.out, args.output_every))
     if not args.no_plot:
-        title = (
-            rf"{'ball' if args.dim == 3 else 'disk'} on a slab, "
-            rf"$\gamma_0 = {latex_number(args.gamma0)}$, $h = {args.mesh_size:g}$, "
-            rf"$\tau = {latex_number(args.dt)}$"
-        )
+        title = figure_title(
+            f"{'ball' if args.dim == 3 else 'disk'} on a slab", gamma0=args.gamma0,
+            h=f"{args.mesh_size:g}", dt=args.dt,
+        )  # fmt: skip
         energy_figure([history], ["ball on slab"], ["tab:blue"], title,
                       os.path.join(args.out, "energy.png"))  # fmt: skip
         picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")

@@ -70,7 +70,7 @@ from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES, require
-from nitsche_dolfinx.plotting import bar_figure, method_title
+from nitsche_dolfinx.plotting import bar_figure, figure_title
 from nitsche_dolfinx.reports import bar_summary, written_to
 
 # Names of the schemes in the figure and the summary
@@ -180,10 +180,9 @@ def main(argv: list[str] | None = None) -> None:
     bar_summary(histories, labels, args.dt)
     print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
-        title = method_title(
-            "1D bouncing bar", args.nitsche_theta, args.gamma0, degree=args.degree,
-            h=1 / args.nx, dt=args.dt,
-        )  # fmt: skip
+        title = figure_title(
+            "1D bouncing bar", args.nitsche_theta, args.gamma0, args.degree, 1 / args.nx, args.dt
+        )
         bar_figure(histories, labels, title, os.path.join(args.out, "bar_1d.png"), args.t_end)
 
 

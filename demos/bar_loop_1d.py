@@ -52,7 +52,7 @@ from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import bar_contact_errors
 from nitsche_dolfinx.output import HistoryWriter, SolutionWriter
 from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.plotting import bar_figure, method_title
+from nitsche_dolfinx.plotting import bar_figure, figure_title
 from nitsche_dolfinx.reports import written_to
 
 # -
@@ -152,7 +152,7 @@ if comm.rank == 0:
     print(written_to(args.out, args.output_every))
     if not args.no_plot:
         label = f"Nitsche + {simulation.scheme.describe()}"
-        title = method_title(
+        title = figure_title(
             "1D bouncing bar, step by step", args.nitsche_theta, args.gamma0, dt=args.dt
         )
         bar_figure([history], [label], title, os.path.join(args.out, "bar_loop_1d.png"), args.t_end)

@@ -65,7 +65,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS, BAR_METHODS
 from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.plotting import comparison_figure, method_title
+from nitsche_dolfinx.plotting import comparison_figure, figure_title
 from nitsche_dolfinx.reports import COMPARISON_COLUMNS, comparison_row, comparison_table, write_csv
 from nitsche_dolfinx.schemes import make_scheme
 
@@ -158,10 +158,9 @@ def main(argv: list[str] | None = None) -> None:
         f"summary: {os.path.join(args.out, 'summary.csv')}, {os.path.join(args.out, 'summary.md')}"
     )
     if not args.no_plot:
-        title = method_title(
-            "1D bouncing bar", args.nitsche_theta, args.gamma0, degree=args.degree,
-            h=1 / args.nx, dt=args.dt,
-        )  # fmt: skip
+        title = figure_title(
+            "1D bouncing bar", args.nitsche_theta, args.gamma0, args.degree, 1 / args.nx, args.dt
+        )
         path = os.path.join(args.out, "compare_methods_1d.png")
         comparison_figure(methods, [history for history, _ in runs], title, path, args.t_end)
 

@@ -68,7 +68,7 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.plotting import convergence_figure, latex_number
+from nitsche_dolfinx.plotting import convergence_figure, figure_title
 from nitsche_dolfinx.reports import (
     CONVERGENCE_ERRORS,
     convergence_acceptance,
@@ -185,12 +185,10 @@ def main(argv: list[str] | None = None) -> None:
         print(convergence_acceptance(results["hybrid"]))
     print(f"table: {os.path.join(args.out, 'convergence.csv')}")
     if not args.no_plot:
-        step = rf"{args.ratio:g}\,h" if args.dt is None else latex_number(args.dt)
-        title = (
-            rf"1D bouncing bar: convergence with $\tau = {step}$ over "
-            rf"$(0, {args.t_end:g})$, Nitsche $\Theta = {args.nitsche_theta:g}$, "
-            rf"$\gamma_0 = {latex_number(args.gamma0)}$, P{args.degree}"
-        )
+        title = figure_title(
+            rf"1D bouncing bar, convergence over $(0, {args.t_end:g})$", args.nitsche_theta,
+            args.gamma0, args.degree, dt=rf"{args.ratio:g}\,h" if args.dt is None else args.dt,
+        )  # fmt: skip
         convergence_figure(results, labels, title, os.path.join(args.out, "convergence_1d.png"))
 
 

@@ -79,7 +79,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.plotting import energy_figure, latex_number
+from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import run_summary, written_to
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -182,11 +182,10 @@ def main(argv: list[str] | None = None) -> None:
         run_summary(history, seconds)
         print(written_to(args.out, args.output_every))
         if not args.no_plot:
-            title = (
-                rf"2D bouncing ring, {simulation.scheme.describe()}, Nitsche "
-                rf"$\Theta = {args.nitsche_theta:g}$, $\gamma_0 = {latex_number(args.gamma0)}$, "
-                rf"P{args.degree}, $\tau = {latex_number(args.dt)}$"
-            )
+            title = figure_title(
+                f"2D bouncing ring, {simulation.scheme.describe()}", args.nitsche_theta,
+                args.gamma0, args.degree, dt=args.dt,
+            )  # fmt: skip
             path = os.path.join(args.out, "ring_2d.png")
             energy_figure([history], ["$E^h$"], ["black"], title, path)
 

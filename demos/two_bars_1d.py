@@ -51,7 +51,7 @@ from nitsche_dolfinx.exact import two_bars_errors
 from nitsche_dolfinx.history import History
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Worldlines, render_worldlines
-from nitsche_dolfinx.plotting import energy_figure, latex_number, two_bars_figure
+from nitsche_dolfinx.plotting import energy_figure, figure_title, two_bars_figure
 from nitsche_dolfinx.reports import refinement_table, two_bars_summary, write_csv
 from nitsche_dolfinx.twobody import (
     LOWER_BODY,
@@ -166,9 +166,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"refinement: {path}")
     if not args.no_plot:
         two_bars_figure(history, args.v0, args.gap, os.path.join(args.out, "two_bars_1d.png"))
-        title = (
-            rf"two bars, {args.variant}, $\gamma_0 = {latex_number(args.gamma0)}$, "
-            rf"{args.nx} cells each, $\tau = {latex_number(args.dt)}$"
+        title = figure_title(
+            f"two bars, {args.variant}, {args.nx} cells each", gamma0=args.gamma0, dt=args.dt
         )
         energy_figure([history], ["two bars"], ["tab:blue"], title,
                       os.path.join(args.out, "energy.png"))  # fmt: skip

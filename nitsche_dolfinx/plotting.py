@@ -64,18 +64,21 @@ def latex_number(x: float) -> str:
     return power if mantissa == "1" else rf"{mantissa} \cdot {power}"
 
 
-def method_title(subject: str, theta: float, gamma0: float, **discretisation) -> str:
-    """A figure's title: ``subject``, the Nitsche parameters, then the ``discretisation``
-    given (``degree``, ``h``, ``dt``: numbers, or LaTeX for ``h``)."""
-    parts = [rf"Nitsche $\Theta = {theta:g}$", rf"$\gamma_0 = {latex_number(gamma0)}$"]
-    if discretisation.get("degree") is not None:
-        parts.append(f"P{discretisation['degree']}")
-    for name, symbol in (("h", "h"), ("dt", r"\tau")):
-        value = discretisation.get(name)
+def figure_title(subject: str, theta=None, gamma0=None, degree=None, h=None, dt=None) -> str:
+    """A figure's title: ``subject``, then those of the Nitsche parameters (``theta``,
+    ``gamma0``) and the discretisation (``degree``, ``h``, ``dt``) that are given; ``h``
+    and ``dt`` are numbers, or LaTeX."""
+    parts = [] if theta is None else [rf"Nitsche $\Theta = {theta:g}$"]
+    if gamma0 is not None:
+        parts.append(rf"$\gamma_0 = {latex_number(gamma0)}$")
+    if degree is not None:
+        parts.append(f"P{degree}")
+    for symbol, value in (("h", h), (r"\tau", dt)):
         if value is not None:
-            value = value if isinstance(value, str) else latex_number(value)
-            parts.append(rf"${symbol} = {value}$")
-    return f"{subject}: " + ", ".join(parts)
+            parts.append(
+                rf"${symbol} = {value if isinstance(value, str) else latex_number(value)}$"
+            )
+    return ": ".join([subject, ", ".join(parts)]) if parts else subject
 
 
 #: A colour per time scheme (:data:`~nitsche_dolfinx.schemes.SCHEMES`), the same in every
