@@ -76,22 +76,28 @@ def log_time(event: str) -> float:
     return MPI.COMM_WORLD.allreduce(PETSc.Log.Event(event).getPerfInfo()["time"], op=MPI.MAX)
 
 
-def measure(
-    mesh_size: float, t_end: float, contact: bool, linear_solver: str, scheme: str, reuse: bool
-):
-    """Run the ball once; return its figures."""
-    comm = MPI.COMM_WORLD
-    problem = impact_problem(dim=3, mesh_size=mesh_size, contact=contact, comm=comm)
+def ball_simulation(problem, t_end: float, linear_solver: str, scheme: str, **options):
+    """The talk's run of ``problem`` (tau = 0.1) with ``linear_solver``, "lu-petsc" being
+    PETSc's own LU."""
     petsc = linear_solver == "lu-petsc"
-    simulation = Simulation(
+    return Simulation(
         problem,
         make_scheme(scheme),
         dt=0.1,
         t_end=t_end,
         petsc_options=PETSC_LU if petsc else None,
         linear_solver="lu" if petsc else linear_solver,
-        reuse_jacobian=reuse,
+        **options,
     )
+
+
+def measure(
+    mesh_size: float, t_end: float, contact: bool, linear_solver: str, scheme: str, reuse: bool
+):
+    """Run the ball once; return its figures."""
+    comm = MPI.COMM_WORLD
+    problem = impact_problem(dim=3, mesh_size=mesh_size, contact=contact, comm=comm)
+    simulation = ball_simulation(problem, t_end, linear_solver, scheme, reuse_jacobian=reuse)
     events = ("SNESFunctionEval", "SNESJacobianEval", "KSPSolve", "PCSetUp")
     before = {event: log_time(event) for event in events}
     start = time.perf_counter()
@@ -165,15 +171,7 @@ def scaling_simulation(mesh_size: float, t_end: float, linear_solver: str, schem
     start = time.perf_counter()
     problem = impact_problem(dim=3, mesh_size=mesh_size, comm=comm)
     mesh_seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX)
-    petsc = linear_solver == "lu-petsc"
-    simulation = Simulation(
-        problem,
-        make_scheme(scheme),
-        dt=0.1,
-        t_end=t_end,
-        petsc_options=PETSC_LU if petsc else None,
-        linear_solver="lu" if petsc else linear_solver,
-    )
+    simulation = ball_simulation(problem, t_end, linear_solver, scheme)
     setup_seconds = comm.allreduce(time.perf_counter() - start, op=MPI.MAX) - mesh_seconds
     return simulation, mesh_seconds, setup_seconds
 
