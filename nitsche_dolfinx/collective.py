@@ -4,14 +4,27 @@ A value computed by ``fem.assemble_scalar`` or from the owned entries of a vecto
 this rank's share: the whole is a reduction over the communicator. These reduce several
 values in one ``Allreduce`` of a numpy array (no pickling), and skip the call on a single
 rank, where a reduction still costs more than the arithmetic of a small step.
+
+:func:`garbage_collected_together` keeps Python's cycle collector to points that every
+rank reaches together, because freeing a PETSc object is not a local matter (see there).
 """
 
 from __future__ import annotations
 
+import gc
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numpy as np
 from mpi4py import MPI
 
-__all__ = ["any_rank", "max_over_ranks", "sum_over_ranks"]
+__all__ = [
+    "any_rank",
+    "collect_garbage_together",
+    "garbage_collected_together",
+    "max_over_ranks",
+    "sum_over_ranks",
+]
 
 
 def _reduced(comm, values, op) -> np.ndarray:
@@ -36,3 +49,38 @@ def any_rank(comm, flag: bool) -> bool:
     if comm.size == 1:
         return bool(flag)
     return bool(comm.allreduce(bool(flag), op=MPI.LOR))
+
+
+@contextmanager
+def garbage_collected_together(comm) -> Iterator[None]:
+    """A block (collective) in which Python's cycle collector runs only where every rank
+    calls it: on entry, on exit and at :func:`collect_garbage_together`.
+
+    The collector runs on each rank when that rank's own allocations say so. From dolfinx
+    0.8 on, a ``la.Vector`` destroys its PETSc vector in ``__del__``, and the last PETSc
+    object on a communicator frees PETSc's inner communicator with it. A vector in a
+    reference cycle is thus freed on one rank and not yet on the other, and the next PETSc
+    object on that communicator then duplicates the communicator (collective) on one rank
+    only: the ranks wait for each other for ever (seen with dolfinx 0.11 and Open MPI 5).
+    With the collector held to common points, every rank frees the same objects at the same
+    point. On one rank nothing changes.
+    """
+    if comm.size == 1:
+        yield
+        return
+    enabled = gc.isenabled()
+    gc.disable()
+    gc.collect()
+    try:
+        yield
+    finally:
+        gc.collect()
+        if enabled:
+            gc.enable()
+
+
+def collect_garbage_together(comm, generation: int = 2) -> None:
+    """Collect the reference cycles of ``generation`` (and younger) on every rank: called
+    at the same point of a :func:`garbage_collected_together` block by every rank."""
+    if comm.size > 1:
+        gc.collect(generation)

@@ -20,6 +20,7 @@ from typing import Any
 
 from .agreement import FailureChannel
 from .checkpoint import CheckpointError, SavedState, load_state, save_state
+from .collective import collect_garbage_together, garbage_collected_together
 from .history import HISTORY_COLUMNS, History
 from .linear_solvers import LinearSolver
 from .linear_solvers import linear_solver as linear_solver_preset
@@ -112,30 +113,32 @@ class Simulation:
     ):
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
-        self.max_step_cuts = int(max_step_cuts)
-        chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
-        if linear_solver == "auto" and chosen:
-            linear_solver = None  # the user chose the linear solver: no preset
-        if linear_solver is None:  # the default direct solve with the user's options
-            preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
-        else:
-            preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
-        #: The linear solver in words, for summaries.
-        self.solver_description = preset.description
-        if problem.method == "mixed":
-            self.stepper: Stepper = MixedStepper(
-                problem, scheme, time_stepping, petsc_options, preset
-            )
-        else:
-            self.stepper = NitscheStepper(
-                problem,
-                scheme,
-                time_stepping,
-                petsc_options,
-                preset,
-                reuse_jacobian,
-                guard_friction,
-            )
+        # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
+        with garbage_collected_together(problem.mesh.comm):
+            self.max_step_cuts = int(max_step_cuts)
+            chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
+            if linear_solver == "auto" and chosen:
+                linear_solver = None  # the user chose the linear solver: no preset
+            if linear_solver is None:  # the default direct solve with the user's options
+                preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
+            else:
+                preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
+            #: The linear solver in words, for summaries.
+            self.solver_description = preset.description
+            if problem.method == "mixed":
+                self.stepper: Stepper = MixedStepper(
+                    problem, scheme, time_stepping, petsc_options, preset
+                )
+            else:
+                self.stepper = NitscheStepper(
+                    problem,
+                    scheme,
+                    time_stepping,
+                    petsc_options,
+                    preset,
+                    reuse_jacobian,
+                    guard_friction,
+                )
         self.progress = progress
         self._probes: dict[str, Callable[[], float]] = {}
 
@@ -221,7 +224,10 @@ class Simulation:
         """
         output = OutputParameters(output_every, checkpoint_every)
         self._check_columns(columns)
-        run = _Run(self, out, list(columns), output)
+        with garbage_collected_together(self.comm):
+            return self._run(_Run(self, out, list(columns), output), restart, callback)
+
+    def _run(self, run: _Run, restart, callback) -> History:
         run.open(restart)
         failures = FailureChannel(self.comm)
         collective_exit = False
@@ -405,6 +411,8 @@ class _Run:
             callback(sim)
         if every and sim.step_index % every == 0:
             self.last_saved = sim.save_checkpoint(self.checkpoints, self.columns)
+        if sim.step_index % 100 == 0:  # cycles a callback may leave (the steps leave none)
+            collect_garbage_together(self.comm, generation=1)
         number = signals.requested(self.comm)
         if number:
             raise RunInterrupted(number, sim.step_index, sim.t, self.save_on_stop())
