@@ -204,6 +204,12 @@ SCHEMES: dict[str, type[TimeScheme]] = {
 }
 
 
+def _register_verlet() -> None:
+    from .verlet import VerletScheme
+
+    SCHEMES["verlet"] = VerletScheme
+
+
 def scheme_parameters() -> dict[str, Key]:
     """The parameters of every scheme of :data:`SCHEMES`, by name (one key per name)."""
     keys: dict[str, Key] = {}

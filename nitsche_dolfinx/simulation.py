@@ -125,7 +125,11 @@ class Simulation:
                 preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
             #: The linear solver in words, for summaries.
             self.solver_description = preset.description
-            if problem.method == "mixed":
+            if getattr(scheme, "explicit", False):
+                from .verlet import ExplicitStepper
+
+                self.stepper = ExplicitStepper(problem, scheme, time_stepping)
+            elif problem.method == "mixed":
                 self.stepper: Stepper = MixedStepper(
                     problem, scheme, time_stepping, petsc_options, preset
                 )

@@ -1,0 +1,223 @@
+"""The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md,
+section on explicit dynamics): with a diagonal mass, a step is one assembly of a vector
+and one division, without Newton and without a linear solve.
+
+    u^{n+1} = u^n + tau v^n + tau^2/2 a^n
+    M a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .) - int_Gamma_C (1/gamma_h) [P_gamma(u^{n+1})]_+ P_Thgamma(.)
+    v^{n+1} = v^n + tau/2 (a^n + a^{n+1})
+
+PROTOTYPE (branch ``verlet``): rigid obstacles, frictionless, lumped mass; the massless
+nodes of the redistributed mass, contact pairs, friction, the stable step and the
+energy the scheme controls come next.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+from . import compat
+from .diagnostics import Diagnostics
+from .dirichlet import DirichletDofs
+from .fields import ContactFields, LevelRefresh
+from .material import von_mises
+from .model import ContactProblem
+from .parameters import ParameterError, TimeStepping
+from .schemes import TimeScheme
+from .stepping import (
+    UncontrolledStep,
+    check_initial_gap,
+    checkpoint_description,
+    interpolate_initial,
+)
+from .timelevels import TimeLevels
+
+__all__ = ["ExplicitStepper", "VerletScheme"]
+
+
+class VerletScheme(TimeScheme):
+    """The Verlet scheme: Newmark with beta = 0 and gamma = 1/2, stepped without a solve
+    by :class:`ExplicitStepper`; ``w = a^{n+1}``."""
+
+    name = "verlet"
+    explicit = True
+
+    def kinematics(self, u, v, a, w, dt):
+        u1 = u + dt * v + dt**2 / 2 * a
+        v1 = v + dt / 2 * (a + w)
+        return u1, v1, w
+
+
+class ExplicitStepper(TimeLevels):
+    """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
+    a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
+
+    def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping):
+        if problem.mass_diagonal() is None:
+            raise ParameterError(
+                "mass", problem.mass, "the verlet scheme needs a diagonal mass: lumped"
+            )
+        if problem.pairs or problem.frictional or problem.method != "nitsche":
+            raise ParameterError(
+                "scheme", scheme.describe(), "prototype: rigid obstacles, no friction, Nitsche"
+            )
+        self.problem, self.scheme = problem, scheme
+        self._start_levels(time_stepping)
+        self.comm = problem.mesh.comm
+        V = problem.V
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.newton_iterations, self.step_seconds = 0, 0.0
+        self._dirichlet = DirichletDofs(problem)
+        test = ufl.TestFunction(V)
+        self._force = fem.form(problem.load(test) - problem.operator(self.u, test, self.v))
+        self._vector = compat.create_vector(V)
+        mass = problem.mass_diagonal()
+        with mass.localForm() as local:
+            diagonal = local.array.copy()
+        self._inverse_mass = np.zeros_like(diagonal)
+        massive = diagonal > 0
+        self._inverse_mass[massive] = 1.0 / diagonal[massive]
+        self._inverse_mass[self._dirichlet.dofs] = 0.0  # prescribed: no acceleration of their own
+        self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self._contact_fields = None
+        self.friction_dissipation = 0.0
+        self._energy_before = None
+        self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
+        interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
+        interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
+        self._dirichlet.set_values(self.u.x.array, 0.0)
+        check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
+        problem.set_time(0.0)
+        self._accelerate()
+
+    def _accelerate(self) -> None:
+        """a = M^-1 (L - B(u)) at the current u (and loads' time)."""
+        vector = self._vector
+        with vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(vector, self._force)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with vector.localForm() as local:
+            self.a.x.array[:] = local.array * self._inverse_mass
+
+    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
+        """One Verlet step to ``t_new`` (default: the next level); returns 0 (no Newton)."""
+        start = time.perf_counter()
+        t_new, dt = self._step_to(t_new)
+        u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
+        for previous, array in zip(self._previous, (u, v, a)):
+            previous[:] = array
+        self._energy_before = self.diagnostics.energies()["energy_theta"]
+        u += dt * v + dt**2 / 2 * a
+        self._dirichlet.set_values(u, t_new)
+        self.problem.set_time(t_new)
+        self._accelerate()
+        v += dt / 2 * (self._previous[2] + a)
+        if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
+            dofs = self._dirichlet.prescribed
+            v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
+        values = self.diagnostics.energies()
+        if not all(np.isfinite(x) for k, x in values.items() if k != "penetration_max"):
+            for previous, array in zip(self._previous, (u, v, a)):
+                array[:] = previous
+            error = UncontrolledStep(values, 0, "tau is above the stable step")
+            error.add_context(step=self.step_index + 1, t=t_new)
+            raise error
+        self._arrive(t_new, dt, cuts)
+        self.step_seconds = time.perf_counter() - start
+        return 0
+
+    def state(self, columns=None) -> dict[str, float]:
+        values = {"t": self.t, **self.diagnostics.compute(columns)}
+        values["friction_dissipation"] = 0.0
+        values["energy_balance_residual"] = (
+            0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
+        )
+        values["newton_iterations"] = 0
+        values["step_seconds"] = self.step_seconds
+        values["dt"] = self.last_dt
+        values["step_cuts"] = self.step_cuts
+        return values
+
+    def contact_pressure(self):
+        return self.problem.contacts[0].pressure(self.u)
+
+    def output_fields(self) -> dict:
+        shape = (self.problem.gdim,)
+        fields = {
+            "displacement": (self.u, shape),
+            "velocity": (self.v, shape),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
+        }
+        if self.problem.contacts:
+            if self._contact_fields is None:
+                self._contact_fields = ContactFields(self.problem, self.u)
+            refresh = LevelRefresh(self._contact_fields.update, lambda: (self.step_index, self.t))
+            fields.update(
+                {n: (refresh.wrap(f), s) for n, (f, s) in self._contact_fields.fields().items()}
+            )
+        return fields
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+
+    def describe(self) -> dict[str, Any]:
+        return checkpoint_description(self)
+
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        self._restore_levels(t, step_index, saved)
+        self.step_seconds = 0.0
+        self.problem.set_time(t)
+
+
+def contact_stiffness_form(problem: ContactProblem):
+    """The bilinear form of the operator's derivative with every point of every Gamma_C in
+    contact: the bulk stiffness, the boundary part of A_Thgamma and (1/gamma_h) times the
+    linear part of P_gamma(du) times P_Thgamma(v). For Theta = 1 it bounds the stiffness of
+    every contact state from above (the contact adds a rank-one nonnegative term per
+    quadrature point), so its largest eigenvalue bounds the stable step from below."""
+    V = problem.V
+    du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    form = problem.bulk_stiffness(du, v)
+    for contact in problem.contacts:
+        linear = contact.normal_displacement(du) - contact.gamma_h * contact.sigma_n(du)
+        form = form + contact.consistency_term(du, v) + contact.contact_term(linear, v)
+    return form
+
+
+def largest_eigenvalue(problem: ContactProblem, inverse_mass: np.ndarray, iterations=200,
+                       rtol=1e-6) -> float:  # fmt: skip
+    """The largest eigenvalue of M^-1 K (K: :func:`contact_stiffness_form`, M diagonal,
+    ``inverse_mass`` zero at the dofs without a mass of their own) by power iterations on
+    the symmetric M^-1/2 K M^-1/2, as its Rayleigh quotient (a lower bound that converges
+    from below)."""
+    K = fem_petsc.assemble_matrix(fem.form(contact_stiffness_form(problem)))
+    K.assemble()
+    scale = K.createVecRight()
+    x, y = K.createVecRight(), K.createVecRight()
+    n = scale.getLocalSize()
+    scale.array[:] = np.sqrt(inverse_mass[:n])
+    rng = np.random.default_rng(1 + problem.mesh.comm.rank)
+    x.array[:] = rng.random(n) * (scale.array > 0)
+    x.normalize()
+    estimate = 0.0
+    for _ in range(iterations):
+        y.pointwiseMult(x, scale)
+        z = K.createVecLeft()
+        K.mult(y, z)
+        z.pointwiseMult(z, scale)
+        previous, estimate = estimate, x.dot(z)
+        z.copy(x)
+        x.normalize()
+        if abs(estimate - previous) <= rtol * abs(estimate):
+            break
+    return float(estimate)
