@@ -111,7 +111,9 @@ class Simulation:
         linear_solver: str | None = "auto",
         max_step_cuts: int = 5,
     ):
-        time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        explicit = getattr(scheme, "explicit", False)
+        if not explicit:
+            time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
         with garbage_collected_together(problem.mesh.comm):
@@ -119,7 +121,9 @@ class Simulation:
             chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
             if linear_solver == "auto" and chosen:
                 linear_solver = None  # the user chose the linear solver: no preset
-            if linear_solver is None:  # the default direct solve with the user's options
+            if explicit:
+                preset = LinearSolver("none", {}, 0, description="none (explicit)")
+            elif linear_solver is None:  # the default direct solve with the user's options
                 preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
             else:
                 preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
@@ -128,7 +132,7 @@ class Simulation:
             if getattr(scheme, "explicit", False):
                 from .verlet import ExplicitStepper
 
-                self.stepper = ExplicitStepper(problem, scheme, time_stepping)
+                self.stepper = ExplicitStepper(problem, scheme, dt, t_end)
             elif problem.method == "mixed":
                 self.stepper: Stepper = MixedStepper(
                     problem, scheme, time_stepping, petsc_options, preset

@@ -3,7 +3,8 @@ section on explicit dynamics): with a diagonal mass, a step is one assembly of a
 and one division, without Newton and without a linear solve.
 
     u^{n+1} = u^n + tau v^n + tau^2/2 a^n
-    M a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .) - int_Gamma_C (1/gamma_h) [P_gamma(u^{n+1})]_+ P_Thgamma(.)
+    M a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
+                - int_Gamma_C (1/gamma_h) [P_gamma(u^{n+1})]_+ P_Thgamma(.)
     v^{n+1} = v^n + tau/2 (a^n + a^{n+1})
 
 PROTOTYPE (branch ``verlet``): rigid obstacles, frictionless, lumped mass; the massless
@@ -14,6 +15,7 @@ energy the scheme controls come next.
 from __future__ import annotations
 
 import time
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -28,25 +30,67 @@ from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh
 from .material import von_mises
 from .model import ContactProblem
-from .parameters import ParameterError, TimeStepping
+from .parameters import ParameterError, TimeStepping, require, require_positive, require_real
 from .schemes import TimeScheme
+from .solver import SolverError
 from .stepping import (
-    UncontrolledStep,
     check_initial_gap,
     checkpoint_description,
     interpolate_initial,
 )
 from .timelevels import TimeLevels
 
-__all__ = ["ExplicitStepper", "VerletScheme"]
+__all__ = ["ExplicitStepper", "UnstableStep", "VerletScheme"]
+
+#: A blow-up: kinetic + elastic energy above this many times its largest value up to
+#: :data:`BLOWUP_WINDOW` steps before (an unstable explicit step grows geometrically).
+BLOWUP_FACTOR = 100.0
+BLOWUP_WINDOW = 100
+
+
+class UnstableStep(SolverError):
+    """The explicit steps blew up: the energy grew geometrically or is no longer finite.
+    Smaller steps from here would not undo it: the run stops (``cut_may_help`` False)."""
+
+    cut_may_help = False
+
+    def __init__(self, energy: float, reference: float, dt: float, stable_dt: float):
+        self.energy, self.reference = energy, reference
+        self.dt, self.stable_dt = dt, stable_dt
+        super().__init__(0, 0, float("nan"))
+        self.reason_name = "UNSTABLE"
+
+    def _message(self) -> str:
+        where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
+        return (
+            f"{where}the verlet steps blew up: kinetic + elastic energy {self.energy:.6g}, "
+            f"against at most {self.reference:.6g} until {BLOWUP_WINDOW} steps before; "
+            f"dt = {self.dt:.6g} for an estimated stable step of {self.stable_dt:.6g}: take a "
+            "smaller dt (or safety), or a larger gamma0"
+        )
+
+
+#: The share of the estimated stable step that ``dt = "auto"`` takes.
+DEFAULT_SAFETY = 0.8
 
 
 class VerletScheme(TimeScheme):
     """The Verlet scheme: Newmark with beta = 0 and gamma = 1/2, stepped without a solve
-    by :class:`ExplicitStepper`; ``w = a^{n+1}``."""
+    by :class:`ExplicitStepper`; ``w = a^{n+1}``.
+
+    Args:
+        safety: The share of the estimated stable step that ``dt = "auto"`` takes, in (0, 1].
+        allow_unstable_dt: Take a given dt above the estimated stable step (else refused).
+    """
 
     name = "verlet"
     explicit = True
+
+    def __init__(self, safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False):
+        require_real(safety, "safety", "the safety factor")
+        require(0.0 < safety <= 1.0, "safety", safety, "the safety factor must lie in (0, 1]")
+        self.safety = float(safety)
+        self.allow_unstable_dt = bool(allow_unstable_dt)
 
     def kinematics(self, u, v, a, w, dt):
         u1 = u + dt * v + dt**2 / 2 * a
@@ -58,7 +102,7 @@ class ExplicitStepper(TimeLevels):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
     a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
 
-    def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping):
+    def __init__(self, problem: ContactProblem, scheme: VerletScheme, dt, t_end: float):
         if problem.mass_diagonal() is None:
             raise ParameterError(
                 "mass", problem.mass, "the verlet scheme needs a diagonal mass: lumped"
@@ -68,7 +112,6 @@ class ExplicitStepper(TimeLevels):
                 "scheme", scheme.describe(), "prototype: rigid obstacles, no friction, Nitsche"
             )
         self.problem, self.scheme = problem, scheme
-        self._start_levels(time_stepping)
         self.comm = problem.mesh.comm
         V = problem.V
         self.u = fem.Function(V, name="displacement")
@@ -86,6 +129,10 @@ class ExplicitStepper(TimeLevels):
         massive = diagonal > 0
         self._inverse_mass[massive] = 1.0 / diagonal[massive]
         self._inverse_mass[self._dirichlet.dofs] = 0.0  # prescribed: no acceleration of their own
+        #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
+        #: in contact (:func:`largest_eigenvalue`).
+        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._inverse_mass))
+        self._start_levels(TimeStepping(self._resolve(dt), t_end, 0))
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._contact_fields = None
         self.friction_dissipation = 0.0
@@ -97,6 +144,25 @@ class ExplicitStepper(TimeLevels):
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         problem.set_time(0.0)
         self._accelerate()
+        initial = self.diagnostics.energies()
+        self._settled = initial["kinetic"] + initial["elastic"]  # the largest up to the window
+        self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
+
+    def _resolve(self, dt) -> float:
+        """The time step: ``"auto"`` is the scheme's safety share of the stable step; a
+        given one above the stable step is refused unless the scheme allows it."""
+        scheme, stable = self.scheme, self.stable_dt
+        if isinstance(dt, str) and dt == "auto":
+            return scheme.safety * stable
+        require_positive(dt, "dt", "the time step")
+        if dt > stable and not scheme.allow_unstable_dt:
+            raise ParameterError(
+                "dt", dt,
+                f"above the verlet scheme's stable step {stable:.6g} (estimated for this "
+                f"mesh, mass, gamma0 and Theta); take dt='auto' ({scheme.safety:g} of it) or "
+                "allow the step explicitly (allow_unstable_dt)",
+            )  # fmt: skip
+        return float(dt)
 
     def _accelerate(self) -> None:
         """a = M^-1 (L - B(u)) at the current u (and loads' time)."""
@@ -126,15 +192,24 @@ class ExplicitStepper(TimeLevels):
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
         values = self.diagnostics.energies()
-        if not all(np.isfinite(x) for k, x in values.items() if k != "penetration_max"):
-            for previous, array in zip(self._previous, (u, v, a)):
-                array[:] = previous
-            error = UncontrolledStep(values, 0, "tau is above the stable step")
-            error.add_context(step=self.step_index + 1, t=t_new)
-            raise error
+        self._check_growth(values["kinetic"] + values["elastic"], dt, t_new)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
+
+    def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
+        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up."""
+        recent = self._recent
+        if np.isfinite(energy) and energy <= BLOWUP_FACTOR * max(self._settled, *recent, 0.0):
+            recent.append(energy)
+            if len(recent) > BLOWUP_WINDOW:
+                self._settled = max(self._settled, recent.popleft())
+            return
+        for previous, array in zip(self._previous, (self.u, self.v, self.a)):
+            array.x.array[:] = previous
+        error = UnstableStep(energy, max(self._settled, *recent), dt, self.stable_dt)
+        error.add_context(step=self.step_index + 1, t=t_new)
+        raise error
 
     def state(self, columns=None) -> dict[str, float]:
         values = {"t": self.t, **self.diagnostics.compute(columns)}
