@@ -58,7 +58,7 @@ MAX_STEPS = 10_000_000
 #: 2 degree + 2 (6 for P2 on curved cells) or piecewise ones ([x]_+); a higher degree
 #: only adds points (about (q/2)^d per cell).
 MAX_QUADRATURE_DEGREE = 30
-#: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
+#: Mass matrices: consistent, lumped (P1 row sums, P2 HRZ), redistributed (P1, the modified mass).
 MASS_MATRICES = ("consistent", "lumped", "redistributed")
 
 
@@ -259,7 +259,7 @@ class Discretisation:
         )
         require_choice(self.mass, MASS_MATRICES, "mass", "mass")
         require(
-            self.mass == "consistent" or self.degree == 1,
+            self.mass != "redistributed" or self.degree == 1,
             "mass",
             self.mass,
             f"this mass needs P1 elements, got degree={self.degree!r}",

@@ -145,7 +145,8 @@ class ExplicitStepper(TimeLevels):
         problem.set_time(0.0)
         self._accelerate()
         initial = self.diagnostics.energies()
-        self._settled = initial["kinetic"] + initial["elastic"]  # the largest up to the window
+        #: the largest energy scale up to the window (see _check_growth)
+        self._settled = max(initial["kinetic"] + initial["elastic"], abs(initial["potential"]))
         self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
 
     def _resolve(self, dt) -> float:
@@ -192,22 +193,28 @@ class ExplicitStepper(TimeLevels):
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
         values = self.diagnostics.energies()
-        self._check_growth(values["kinetic"] + values["elastic"], dt, t_new)
+        self._check_growth(values, dt, t_new)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
 
-    def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
-        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up."""
+    def _check_growth(self, values: dict[str, float], dt: float, t_new: float) -> None:
+        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up: kinetic +
+        elastic energy not finite, or above :data:`BLOWUP_FACTOR` times the energy scale of
+        the levels up to :data:`BLOWUP_WINDOW` steps before (kinetic + elastic and the
+        loads' potential; a body at rest until then may start moving)."""
+        energy = values["kinetic"] + values["elastic"]
+        scale = max(energy, abs(values["potential"]))
         recent = self._recent
-        if np.isfinite(energy) and energy <= BLOWUP_FACTOR * max(self._settled, *recent, 0.0):
-            recent.append(energy)
+        reference = max([self._settled, *recent])
+        if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
+            recent.append(scale)
             if len(recent) > BLOWUP_WINDOW:
                 self._settled = max(self._settled, recent.popleft())
             return
         for previous, array in zip(self._previous, (self.u, self.v, self.a)):
             array.x.array[:] = previous
-        error = UnstableStep(energy, max(self._settled, *recent), dt, self.stable_dt)
+        error = UnstableStep(energy, reference, dt, self.stable_dt)
         error.add_context(step=self.step_index + 1, t=t_new)
         raise error
 
