@@ -61,11 +61,11 @@ def _hrz_mass(V, rho: float) -> PETSc.Vec:
         local.set(0.0)
     matrix.getDiagonal(mass)
     matrix.destroy()
-    mass.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     one = fem.Constant(V.mesh, 1.0)
     volume = V.mesh.comm.allreduce(fem.assemble_scalar(fem.form(one * ufl.dx)), op=MPI.SUM)
     bs = V.dofmap.index_map_bs
-    mass.scale(float(rho) * volume * bs / mass.sum())
+    mass.scale(float(rho) * volume * bs / mass.sum())  # the owned entries
+    mass.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     return mass
 
 
