@@ -25,6 +25,8 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from . import compat
+from .collective import sum_over_ranks
+from .contact import positive_part
 from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh
@@ -123,11 +125,24 @@ class ExplicitStepper(TimeLevels):
         # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
-        self._force = fem.form(problem.traction_load(test) - problem.operator(self.u, test, self.v))
+        # the affine terms (the bulk and A_Thgamma's boundary part) as a matrix assembled
+        # once, and the contact force terms, on Gamma_C only, as a vector each step
+        trial = ufl.TrialFunction(V)
+        affine = problem.bulk_stiffness(trial, test)
+        boundary = problem.traction_load(test)
+        for contact in problem.contacts:
+            affine = affine + contact.affine_terms(trial, test)
+            force = positive_part(contact.projection(self.u))
+            boundary = boundary - contact.force_terms(self.u, self.v, force, test)
+        self._stiffness = fem_petsc.assemble_matrix(fem.form(affine))
+        self._stiffness.assemble()
+        self._force = fem.form(boundary)
         self._vector = compat.create_vector(V)
+        self._product = compat.create_vector(V)
         mass = problem.mass_diagonal()
         with mass.localForm() as local:
             diagonal = local.array.copy()
+        self._mass = diagonal
         bs = V.dofmap.index_map_bs
         self._nodes = len(diagonal) // bs
         rho = float(problem.material.rho)
@@ -144,6 +159,7 @@ class ExplicitStepper(TimeLevels):
         self._contact_fields = None
         self.friction_dissipation = 0.0
         self._energy_before = None
+        self._diagnostics_cache = None  # (step index, diagnostics) of the current level
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
@@ -153,7 +169,7 @@ class ExplicitStepper(TimeLevels):
         self._accelerate()
         initial = self.diagnostics.energies()
         #: the largest energy scale up to the window (see _check_growth)
-        self._settled = max(initial["kinetic"] + initial["elastic"], abs(initial["potential"]))
+        self._settled = max(self._energy_scale(), abs(initial["potential"]))
         self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
 
     def _resolve(self, dt) -> float:
@@ -179,6 +195,8 @@ class ExplicitStepper(TimeLevels):
             local.set(0.0)
         fem_petsc.assemble_vector(vector, self._force)
         vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._stiffness.mult(compat.petsc_vector(self.u), self._product)
+        vector.axpy(-1.0, self._product)
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         with vector.localForm() as local:
             force = local.array
@@ -193,7 +211,7 @@ class ExplicitStepper(TimeLevels):
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
         for previous, array in zip(self._previous, (u, v, a)):
             previous[:] = array
-        self._energy_before = self.diagnostics.energies()["energy_theta"]
+        self._energy_before = self._diagnostics()["energy_theta"]
         u += dt * v + dt**2 / 2 * a
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
@@ -202,34 +220,53 @@ class ExplicitStepper(TimeLevels):
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
-        values = self.diagnostics.energies()
-        self._check_growth(values, dt, t_new)
+        self._check_growth(self._energy_scale(), dt, t_new)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
 
-    def _check_growth(self, values: dict[str, float], dt: float, t_new: float) -> None:
-        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up: kinetic +
-        elastic energy not finite, or above :data:`BLOWUP_FACTOR` times the energy scale of
-        the levels up to :data:`BLOWUP_WINDOW` steps before (kinetic + elastic and the
-        loads' potential; a body at rest until then may start moving)."""
-        energy = values["kinetic"] + values["elastic"]
-        scale = max(energy, abs(values["potential"]))
+    def _energy_scale(self) -> float:
+        """1/2 v.M v + |1/2 u.K u| (K: the affine terms), from the last force evaluation: a
+        measure of the energy for the blow-up check, without assembly."""
+        n = self._product.getLocalSize()
+        u, v = self.u.x.array[:n], self.v.x.array[:n]
+        with self._product.localForm() as local:
+            ku = local.array[:n]
+        mass = self._mass[:n]
+        kinetic, elastic = sum_over_ranks(self.comm, [v @ (mass * v), u @ ku]) / 2
+        return float(kinetic + abs(elastic))
+
+    def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
+        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up: the energy
+        scale (:meth:`_energy_scale`) not finite, or above :data:`BLOWUP_FACTOR` times its
+        largest value up to :data:`BLOWUP_WINDOW` steps before, or the loads' potential at
+        t = 0 (a body at rest may start moving)."""
         recent = self._recent
         reference = max([self._settled, *recent])
         if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
-            recent.append(scale)
+            recent.append(energy)
             if len(recent) > BLOWUP_WINDOW:
                 self._settled = max(self._settled, recent.popleft())
             return
         for previous, array in zip(self._previous, (self.u, self.v, self.a)):
             array.x.array[:] = previous
+        self._diagnostics_cache = None
         error = UnstableStep(energy, reference, dt, self.stable_dt)
         error.add_context(step=self.step_index + 1, t=t_new)
         raise error
 
+    def _diagnostics(self, columns=()) -> dict[str, float]:
+        """The diagnostics of the current level (the optional ones that ``columns`` name;
+        None: all), each computed once per level."""
+        cached = self._diagnostics_cache
+        if cached is None or cached[0] != self.step_index:
+            self._diagnostics_cache = (self.step_index, self.diagnostics.compute(columns))
+        else:
+            self.diagnostics.complete(cached[1], columns)
+        return self._diagnostics_cache[1]
+
     def state(self, columns=None) -> dict[str, float]:
-        values = {"t": self.t, **self.diagnostics.compute(columns)}
+        values = {"t": self.t, **self._diagnostics(columns)}
         values["friction_dissipation"] = 0.0
         values["energy_balance_residual"] = (
             0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
@@ -269,6 +306,9 @@ class ExplicitStepper(TimeLevels):
         self._restore_levels(t, step_index, saved)
         self.step_seconds = 0.0
         self.problem.set_time(t)
+        self._diagnostics_cache = None
+        self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
+        self._settled, self._recent = max(self._settled, self._energy_scale()), deque()
 
 
 def round_down(value: float, digits: int = 3) -> float:
