@@ -72,8 +72,11 @@ class UnstableStep(SolverError):
         )
 
 
-#: The share of the estimated stable step that ``dt = "auto"`` takes.
-DEFAULT_SAFETY = 0.8
+#: The share of the estimated stable step that ``dt = "auto"`` takes. The estimate is the
+#: linear bound with every contact point active; the switching of the contact status pumps
+#: energy below it (the bar, gamma0 = 0.1, 4 impacts: +0.4% at 0.5, +26% at 0.6, +120% at
+#: 0.8 of the bound), so half of it.
+DEFAULT_SAFETY = 0.5
 
 
 class VerletScheme(TimeScheme):
@@ -315,7 +318,7 @@ def round_down(value: float, digits: int = 3) -> float:
     """``value`` rounded down to ``digits`` significant digits: the automatic step is the same
     on every partition (whose estimates differ by round-off) and reads well."""
     exponent = int(np.floor(np.log10(value))) - digits + 1
-    return float(np.floor(value / 10.0**exponent) * 10.0**exponent)
+    return float(f"{int(np.floor(value / 10.0**exponent))}e{exponent}")  # the nearest double
 
 
 def contact_stiffness_form(problem: ContactProblem):
