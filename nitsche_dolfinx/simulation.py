@@ -35,6 +35,7 @@ from .signals import RunInterrupted, StopSignals
 from .solver import SolverError
 from .stepper import NitscheStepper
 from .stepping import Stepper
+from .verlet import ExplicitStepper
 
 __all__ = ["Simulation"]
 
@@ -113,6 +114,10 @@ class Simulation:
     ):
         explicit = getattr(scheme, "explicit", False)
         if not explicit:
+            require(
+                not (isinstance(dt, str) and dt == "auto"), "dt", dt,
+                "an automatic step is the verlet scheme's (its stable step): give tau",
+            )  # fmt: skip
             time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
@@ -129,9 +134,7 @@ class Simulation:
                 preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
             #: The linear solver in words, for summaries.
             self.solver_description = preset.description
-            if getattr(scheme, "explicit", False):
-                from .verlet import ExplicitStepper
-
+            if explicit:
                 self.stepper = ExplicitStepper(problem, scheme, dt, t_end)
             elif problem.method == "mixed":
                 self.stepper: Stepper = MixedStepper(

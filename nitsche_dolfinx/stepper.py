@@ -136,8 +136,8 @@ def _check_scheme(problem: ContactProblem, scheme: TimeScheme, dt: float) -> Non
             scheme.describe(),
             "theta = 0 and Newmark beta = 0 are explicit: u^{n+1} is known before the "
             "step's solve, whose equation then has no stiffness (nor contact) part for "
-            "this implicit stepper to solve, and no time step limit is checked; use "
-            "theta > 0 or beta > 0",
+            "this implicit stepper to solve, and no time step limit is checked; use the "
+            "verlet scheme (explicit, with its stable step), or theta > 0 or beta > 0",
         )
 
 

@@ -32,8 +32,8 @@ from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh
 from .material import von_mises
 from .model import ContactProblem
-from .parameters import ParameterError, TimeStepping, require, require_positive, require_real
-from .schemes import TimeScheme
+from .parameters import ParameterError, TimeStepping, require_positive
+from .schemes import VerletScheme
 from .solver import SolverError
 from .stepping import (
     check_initial_gap,
@@ -70,37 +70,6 @@ class UnstableStep(SolverError):
             f"dt = {self.dt:.6g} for an estimated stable step of {self.stable_dt:.6g}: take a "
             "smaller dt (or safety), or a larger gamma0"
         )
-
-
-#: The share of the estimated stable step that ``dt = "auto"`` takes. The estimate is the
-#: linear bound with every contact point active; the switching of the contact status pumps
-#: energy below it (the bar, gamma0 = 0.1, 4 impacts: +0.4% at 0.5, +26% at 0.6, +120% at
-#: 0.8 of the bound), so half of it.
-DEFAULT_SAFETY = 0.5
-
-
-class VerletScheme(TimeScheme):
-    """The Verlet scheme: Newmark with beta = 0 and gamma = 1/2, stepped without a solve
-    by :class:`ExplicitStepper`; ``w = a^{n+1}``.
-
-    Args:
-        safety: The share of the estimated stable step that ``dt = "auto"`` takes, in (0, 1].
-        allow_unstable_dt: Take a given dt above the estimated stable step (else refused).
-    """
-
-    name = "verlet"
-    explicit = True
-
-    def __init__(self, safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False):
-        require_real(safety, "safety", "the safety factor")
-        require(0.0 < safety <= 1.0, "safety", safety, "the safety factor must lie in (0, 1]")
-        self.safety = float(safety)
-        self.allow_unstable_dt = bool(allow_unstable_dt)
-
-    def kinematics(self, u, v, a, w, dt):
-        u1 = u + dt * v + dt**2 / 2 * a
-        v1 = v + dt / 2 * (a + w)
-        return u1, v1, w
 
 
 class ExplicitStepper(TimeLevels):
