@@ -147,6 +147,11 @@ class TimeStepping:
     max_step_cuts: int = 5
 
     def __post_init__(self):
+        if self.automatic:  # the verlet scheme's stable step, known with the problem
+            require_positive(self.t_end, "t_end", "the final time")
+            require(self.t_end <= LARGEST, "t_end", self.t_end, f"at most {LARGEST:g}")
+            require_integer(self.max_step_cuts, "max_step_cuts", "the number of step cuts", 0, 30)
+            return
         require_positive(self.dt, "dt", "the time step")
         require_real(self.t_end, "t_end", "the final time")
         require(
@@ -165,9 +170,16 @@ class TimeStepping:
         require_integer(self.max_step_cuts, "max_step_cuts", "the number of step cuts", 0, 30)
 
     @property
+    def automatic(self) -> bool:
+        """Whether dt is ``"auto"`` (the verlet scheme's stable step, found with the problem)."""
+        return isinstance(self.dt, str) and self.dt == "auto"
+
+    @property
     def num_steps(self) -> int:
         """The number of steps to t_end: t_end / dt rounded up (a shorter last step), but
         for the round-off of t_end / dt (6 / 0.015 is 400 steps)."""
+        if self.automatic:
+            raise ValueError("dt='auto': the number of steps is the Simulation's (num_steps)")
         return max(1, math.ceil(self.t_end / self.dt - 1e-9))
 
 

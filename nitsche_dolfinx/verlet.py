@@ -68,7 +68,8 @@ class UnstableStep(SolverError):
             f"{where}the verlet steps blew up: kinetic + elastic energy {self.energy:.6g}, "
             f"against at most {self.reference:.6g} until {BLOWUP_WINDOW} steps before; "
             f"dt = {self.dt:.6g} for an estimated stable step of {self.stable_dt:.6g}: take a "
-            "smaller dt (or safety), or a larger gamma0"
+            "smaller dt (or safety); a growth at every step whatever dt is gamma0 beyond the "
+            "stability limit of the mesh (gamma0 * E near 1): a smaller gamma0"
         )
 
 
@@ -92,6 +93,7 @@ class ExplicitStepper(TimeLevels):
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
         self.newton_iterations, self.step_seconds = 0, 0.0
+        self.solver = None  # no solve in a step
         self._dirichlet = DirichletDofs(problem)
         test = ufl.TestFunction(V)
         # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
@@ -214,7 +216,7 @@ class ExplicitStepper(TimeLevels):
         largest value up to :data:`BLOWUP_WINDOW` steps before, or the loads' potential at
         t = 0 (a body at rest may start moving)."""
         recent = self._recent
-        reference = max([self._settled, *recent])
+        reference = self._settled  # up to the window before: a blow-up cannot raise it
         if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
             recent.append(energy)
             if len(recent) > BLOWUP_WINDOW:
