@@ -324,6 +324,12 @@ class _Run:
             if saved.changes:
                 self.log_changes(saved)
         self.progress = Progress(sim.progress, self.comm, sim.t, sim.t_end)
+        stable = getattr(sim.stepper, "stable_dt", None)
+        if stable is not None:  # an explicit scheme: the step it runs against its limit
+            self.progress.write(
+                f"{sim.scheme.describe()}: estimated stable step {stable:.6g}, dt = {sim.dt:.6g} "
+                f"({sim.dt / stable:.3g} of it)"
+            )
         if self.out is None:
             return
         path = os.path.join(self.out, "history.csv")

@@ -1,15 +1,16 @@
-"""The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md,
-section on explicit dynamics): with a diagonal mass, a step is one assembly of a vector
-and one division, without Newton and without a linear solve.
+"""The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md
+section 12): with a diagonal mass, a step is one product with the matrix of the affine
+terms, one assembly of the contact force on Gamma_C and one division, without Newton and
+without a linear solve.
 
     u^{n+1} = u^n + tau v^n + tau^2/2 a^n
-    M a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
+    D a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
                 - int_Gamma_C (1/gamma_h) [P_gamma(u^{n+1})]_+ P_Thgamma(.)
     v^{n+1} = v^n + tau/2 (a^n + a^{n+1})
 
-PROTOTYPE (branch ``verlet``): rigid obstacles, frictionless, lumped mass; the massless
-nodes of the redistributed mass, contact pairs, friction, the stable step and the
-energy the scheme controls come next.
+The stable step is estimated when the stepper is built; ``dt = "auto"`` takes its
+scheme's safety share. Work in progress (issue 29): rigid obstacles, Nitsche's method,
+frictionless, the lumped mass; the others are refused in one line.
 """
 
 from __future__ import annotations
@@ -73,19 +74,32 @@ class UnstableStep(SolverError):
         )
 
 
+def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
+    """Refuse what the explicit steps do not take yet, in one line each."""
+    refusals = [
+        (problem.mass != "lumped", "mass", problem.mass,
+         "the verlet scheme takes the lumped mass (mass='lumped'): the consistent one needs a "
+         "linear solve a step, the redistributed one a solve on its massless contact nodes, "
+         "neither of which it makes yet"),
+        (problem.method != "nitsche", "method", problem.method,
+         "the verlet scheme takes Nitsche's method"),
+        (bool(problem.pairs), "scheme", scheme.describe(),
+         "contact between bodies is not stepped explicitly yet: an implicit scheme"),
+        (problem.frictional, "friction",
+         float(np.asarray(problem.friction.value)) if problem.frictional else None,
+         "the verlet scheme is frictionless"),
+    ]  # fmt: skip
+    for refused, name, value, why in refusals:
+        if refused:
+            raise ParameterError(name, value, why)
+
+
 class ExplicitStepper(TimeLevels):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
     a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
 
     def __init__(self, problem: ContactProblem, scheme: VerletScheme, dt, t_end: float):
-        if problem.mass_diagonal() is None:
-            raise ParameterError(
-                "mass", problem.mass, "the verlet scheme needs a diagonal mass: lumped"
-            )
-        if problem.pairs or problem.frictional or problem.method != "nitsche":
-            raise ParameterError(
-                "scheme", scheme.describe(), "prototype: rigid obstacles, no friction, Nitsche"
-            )
+        _check_problem(problem, scheme)
         self.problem, self.scheme = problem, scheme
         self.comm = problem.mesh.comm
         V = problem.V

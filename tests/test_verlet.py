@@ -129,3 +129,33 @@ def test_an_interrupted_disk_restarts_to_the_bit(tmp_path):
     assert straight["contact_force"][150] > 0
     for name in DISK_COLUMNS:
         assert np.array_equal(written[name], straight[name]), name
+
+
+@pytest.mark.parametrize(
+    "problem, refused",
+    [
+        (lambda: bar_problem(nx=10), "mass='consistent': the verlet scheme takes the lumped"),
+        (lambda: bar_problem(nx=10, mass="redistributed"), "mass='redistributed'"),
+        (lambda: bar_problem(nx=10, mass="lumped", method="penalty"), "method='penalty'"),
+        (lambda: impact_problem(dim=2, mass="lumped", friction=0.2), "friction=0.2"),
+    ],
+    ids=["consistent", "redistributed", "penalty", "friction"],
+)
+def test_what_the_explicit_steps_do_not_take_is_refused_in_one_line(problem, refused):
+    with pytest.raises(ParameterError, match=refused):
+        Simulation(problem(), VerletScheme(), dt="auto", t_end=1.0)
+
+
+def test_auto_is_the_verlet_scheme_s_and_its_step_is_said_at_start(capsys):
+    from nitsche_dolfinx import HybridScheme
+
+    with pytest.raises(ParameterError, match="dt='auto': an automatic step is the verlet"):
+        Simulation(bar_problem(nx=10), HybridScheme(), dt="auto", t_end=1.0)
+    simulation = Simulation(
+        bar_problem(nx=100, gamma0=0.5, mass="lumped"), VerletScheme(), dt="auto", t_end=0.02,
+        progress=True,
+    )  # fmt: skip
+    simulation.run(columns=["t"])
+    if MPI.COMM_WORLD.rank == 0:
+        said = capsys.readouterr()
+        assert "verlet(safety=0.5): estimated stable step 0.01" in said.out + said.err
