@@ -38,7 +38,7 @@ def lumped_mass(V, rho: float) -> PETSc.Vec:
     of triangles and tetrahedra, the diagonal of the consistent mass scaled to the body's
     mass (Hinton, Rock & Zienkiewicz: element by element the same scaling on affine cells
     of one shape, so the masses stay positive and each cell keeps its mass)."""
-    if V.ufl_element().degree() > 1:
+    if compat.element_degree(V) > 1:
         return _hrz_mass(V, rho)
     ones = fem.Constant(V.mesh, np.ones(V.mesh.geometry.dim))
     rho = fem.Constant(V.mesh, float(rho))  # a constant: one compiled form for every rho
