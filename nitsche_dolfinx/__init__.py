@@ -31,6 +31,7 @@ from .schemes import (
     HybridScheme,
     NewmarkScheme,
     ThetaScheme,
+    VerletScheme,
     make_scheme,
 )
 from .simulation import Simulation
@@ -61,6 +62,7 @@ __all__ = [
     "Simulation",
     "SolverError",
     "ThetaScheme",
+    "VerletScheme",
     "bar_mesh",
     "hybrid_contact_force",
     "load_mesh",

@@ -61,6 +61,11 @@ def finite_float(text: str) -> float:
     return value
 
 
+def time_step(text: str) -> float | str:
+    """A time step flag: a finite number, or ``auto`` (the verlet scheme's stable step)."""
+    return "auto" if text == "auto" else finite_float(text)
+
+
 def petsc_option(text: str) -> tuple[str, str | None]:
     """``KEY=VALUE`` (or ``KEY`` alone, for a switch such as ``ksp_monitor``) as a pair."""
     key, has_value, value = text.partition("=")
@@ -91,7 +96,9 @@ def add_parameter_argument(
         if parameter.flag_default == DEMO_DEFAULT:
             raise TypeError(f"{flag} has no default of its own: give the demo's")
         default = key.default
-    kind = {"number": finite_float, "integer": int, "string": str}[key.kind]
+    if key.kind == "boolean":  # a switch: the flag sets what the default does not
+        return parser.add_argument(flag, action="store_true", help=key.meaning, **kwargs)
+    kind = {"number": finite_float, "integer": int, "string": str, "step": time_step}[key.kind]
     options = {"type": kind, "default": default, "help": key.meaning}
     if key.choices:
         options["choices"] = key.choices
@@ -99,8 +106,9 @@ def add_parameter_argument(
 
 
 #: The flags of :func:`add_method_arguments`, in their order.
-METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--nitsche-theta", "--gamma0",
-                "--gamma0-scaling", "--degree", "--dt", "--t-end", "--max-step-cuts")  # fmt: skip
+METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--allow-unstable-dt",
+                "--nitsche-theta", "--gamma0", "--gamma0-scaling", "--degree", "--dt",
+                "--t-end", "--max-step-cuts")  # fmt: skip
 
 
 def add_method_arguments(
@@ -141,7 +149,10 @@ def add_run_arguments(parser: argparse.ArgumentParser) -> None:
 
 def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> TimeScheme:
     """The scheme ``name`` (``args.scheme`` by default) with the parameters of ``args``."""
-    return make_scheme(name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
+    return make_scheme(
+        name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma,
+        safety=args.safety, allow_unstable_dt=args.allow_unstable_dt,
+    )  # fmt: skip
 
 
 class MethodParameters(NamedTuple):

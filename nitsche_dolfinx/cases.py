@@ -230,6 +230,7 @@ def impact_problem(
     gamma0_scaling: str = "absolute",
     mesh: tuple | None = None,
     method: str = "nitsche",
+    mass: str = "consistent",
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
 
@@ -242,7 +243,7 @@ def impact_problem(
     velocity along x: the body is thrown obliquely. ``mesh``: ``(mesh, facet_tags)`` of
     another body to drop (a part of the disk or ball, say), Gamma_C tagged
     ``DISK_CONTACT`` or ``BALL_CONTACT``; ``mesh_size`` and ``geometry_order`` are then
-    unused. ``method``: that of :class:`ContactProblem`.
+    unused. ``method`` and ``mass``: those of :class:`ContactProblem`.
     """
     if dim not in (2, 3):
         raise ValueError(f"the impact test is 2D (disk) or 3D (ball), got dim={dim!r}")
@@ -258,6 +259,7 @@ def impact_problem(
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,
         friction=friction,
+        mass=mass,
         gamma0_scaling=gamma0_scaling,
         method=method,
     )

@@ -124,6 +124,9 @@ def _run(args: argparse.Namespace, run_parser: argparse.ArgumentParser) -> int:
             if comm.rank == 0:
                 print(f"{args.config}: valid")
             return 0
+        if flags[0] is None and config["scheme"].get("dt") == "auto":  # the steps are known now
+            every = output_parameters(config, args.config, num_steps=simulation.num_steps)
+            output = OutputParameters(every.output_every, output.checkpoint_every)
         simulation.run(
             out=out,
             columns=history_columns(config, simulation),

@@ -372,10 +372,14 @@ def reported_at(where: str, source: str):
         raise ConfigError(f"{source}: {where} {error}") from None
 
 
-def output_parameters(config: dict, source: str = "config", checkpoint_every=None):
+def output_parameters(
+    config: dict, source: str = "config", checkpoint_every=None, num_steps: int | None = None
+):
     """The :class:`~nitsche_dolfinx.parameters.OutputParameters` of ``[output]``
     (``checkpoint_every`` given: it overrides the table's). Without ``[output] every``,
-    the fields are written about :data:`DEFAULT_FIELD_OUTPUTS` times over the run."""
+    the fields are written about :data:`DEFAULT_FIELD_OUTPUTS` times over the run of
+    ``num_steps`` steps (by default those of [scheme]; with dt = "auto", known once the
+    simulation is built: every step until then)."""
     output = config.get("output", {})
     if checkpoint_every is None:
         checkpoint_every = setting(config, "output", "checkpoint_every")
@@ -383,8 +387,10 @@ def output_parameters(config: dict, source: str = "config", checkpoint_every=Non
     if every is None:
         scheme = config["scheme"]
         with reported_at("[scheme]", source):
-            steps = TimeStepping(scheme["dt"], scheme["t_end"]).num_steps
-        every = max(1, math.ceil(steps / DEFAULT_FIELD_OUTPUTS))
+            timing = TimeStepping(scheme["dt"], scheme["t_end"])
+        if num_steps is None and not timing.automatic:
+            num_steps = timing.num_steps
+        every = 1 if num_steps is None else max(1, math.ceil(num_steps / DEFAULT_FIELD_OUTPUTS))
     with reported_at("[output]", source):
         return OutputParameters(every, checkpoint_every)
 

@@ -55,6 +55,7 @@ KINDS: dict[str, tuple[str, Callable[[object], bool]]] = {
     "string": ("a string", lambda v: isinstance(v, str)),
     "integer": ("an integer", is_integer),
     "number": ("a number", is_number),
+    "step": ('a number or "auto"', lambda v: v == "auto" or is_number(v)),
     "boolean": ("true or false", lambda v: isinstance(v, bool)),
     "vector": ("a number or a list of numbers", _is_vector),
     "tag pair": (

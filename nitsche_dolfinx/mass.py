@@ -18,6 +18,7 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import compat
@@ -32,7 +33,13 @@ def _accumulate(vec: PETSc.Vec) -> None:
 
 
 def lumped_mass(V, rho: float) -> PETSc.Vec:
-    """Row sums of the consistent mass matrix ``int rho u . v`` on the vector space ``V``."""
+    """The lumped mass on the vector space ``V``: the row sums of the consistent mass matrix
+    ``int rho u . v`` for P1; for P2, whose row sums are zero or negative at the vertices
+    of triangles and tetrahedra, the diagonal of the consistent mass scaled to the body's
+    mass (Hinton, Rock & Zienkiewicz: element by element the same scaling on affine cells
+    of one shape, so the masses stay positive and each cell keeps its mass)."""
+    if compat.element_degree(V) > 1:
+        return _hrz_mass(V, rho)
     ones = fem.Constant(V.mesh, np.ones(V.mesh.geometry.dim))
     rho = fem.Constant(V.mesh, float(rho))  # a constant: one compiled form for every rho
     mass = compat.create_vector(V)
@@ -40,6 +47,25 @@ def lumped_mass(V, rho: float) -> PETSc.Vec:
         local.set(0.0)
     fem_petsc.assemble_vector(mass, fem.form(rho * ufl.inner(ones, ufl.TestFunction(V)) * ufl.dx))
     _accumulate(mass)
+    return mass
+
+
+def _hrz_mass(V, rho: float) -> PETSc.Vec:
+    """The diagonal of the consistent mass matrix times body mass / its sum."""
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    rho_c = fem.Constant(V.mesh, float(rho))
+    matrix = fem_petsc.assemble_matrix(fem.form(rho_c * ufl.inner(u, v) * ufl.dx))
+    matrix.assemble()
+    mass = compat.create_vector(V)
+    with mass.localForm() as local:
+        local.set(0.0)
+    matrix.getDiagonal(mass)
+    matrix.destroy()
+    one = fem.Constant(V.mesh, 1.0)
+    volume = V.mesh.comm.allreduce(fem.assemble_scalar(fem.form(one * ufl.dx)), op=MPI.SUM)
+    bs = V.dofmap.index_map_bs
+    mass.scale(float(rho) * volume * bs / mass.sum())  # the owned entries
+    mass.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     return mass
 
 

@@ -398,6 +398,21 @@ class ContactProblem:
             form = form + ufl.inner(traction.constant, v) * self.ds(tag)
         return form
 
+    def body_force(self) -> np.ndarray:
+        """The sum of the body forces at the current time (zero without any)."""
+        total = np.zeros(self.gdim)
+        for force in self._body_forces:
+            total += np.asarray(force.constant.value)
+        return total
+
+    def traction_load(self, v):
+        """The tractions' part of L(t)(v): int g_N . v over their boundaries."""
+        zero = fem.Constant(self.mesh, np.zeros(self.gdim))
+        form = ufl.inner(zero, v) * self.ds
+        for tag, traction in self._tractions:
+            form = form + ufl.inner(traction.constant, v) * self.ds(tag)
+        return form
+
     def set_time(self, t: float) -> None:
         """Move the time-dependent loads to time ``t``."""
         for force in self._body_forces:

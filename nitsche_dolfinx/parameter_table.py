@@ -107,7 +107,7 @@ class Parameter:
 def _scheme_rows() -> list[Parameter]:
     """The parameters of the schemes, as the scheme classes describe them."""
     return [
-        Parameter(name, "make_scheme", f"[scheme] {name}", f"--{name}",
+        Parameter(name, "make_scheme", f"[scheme] {name}", "--" + name.replace("_", "-"),
                   replace(key, checked_by_library=True))
         for name, key in scheme_parameters().items()
     ]  # fmt: skip
@@ -125,7 +125,8 @@ PARAMETERS: tuple[Parameter, ...] = (
               _key("string", "hybrid", "the time scheme (API: a TimeScheme, e.g. "
                    "make_scheme(name))", SCHEMES)),
     Parameter("dt", "Simulation", "[scheme] dt", "--dt",
-              _key("number", REQUIRED, "time step tau"), DEMO_DEFAULT),
+              _key("step", REQUIRED, "time step tau (verlet: \"auto\", the safety share of "
+                   "its estimated stable step)"), DEMO_DEFAULT),
     Parameter("t_end", "Simulation", "[scheme] t_end", "--t-end",
               _key("number", REQUIRED, "final time T (a shorter last step reaches it)"),
               DEMO_DEFAULT),

@@ -58,7 +58,7 @@ MAX_STEPS = 10_000_000
 #: 2 degree + 2 (6 for P2 on curved cells) or piecewise ones ([x]_+); a higher degree
 #: only adds points (about (q/2)^d per cell).
 MAX_QUADRATURE_DEGREE = 30
-#: Mass matrices: consistent, lumped (P1), redistributed (P1, the modified mass).
+#: Mass matrices: consistent, lumped (P1 row sums, P2 HRZ), redistributed (P1, the modified mass).
 MASS_MATRICES = ("consistent", "lumped", "redistributed")
 
 
@@ -147,6 +147,11 @@ class TimeStepping:
     max_step_cuts: int = 5
 
     def __post_init__(self):
+        if self.automatic:  # the verlet scheme's stable step, known with the problem
+            require_positive(self.t_end, "t_end", "the final time")
+            require(self.t_end <= LARGEST, "t_end", self.t_end, f"at most {LARGEST:g}")
+            require_integer(self.max_step_cuts, "max_step_cuts", "the number of step cuts", 0, 30)
+            return
         require_positive(self.dt, "dt", "the time step")
         require_real(self.t_end, "t_end", "the final time")
         require(
@@ -165,9 +170,16 @@ class TimeStepping:
         require_integer(self.max_step_cuts, "max_step_cuts", "the number of step cuts", 0, 30)
 
     @property
+    def automatic(self) -> bool:
+        """Whether dt is ``"auto"`` (the verlet scheme's stable step, found with the problem)."""
+        return isinstance(self.dt, str) and self.dt == "auto"
+
+    @property
     def num_steps(self) -> int:
         """The number of steps to t_end: t_end / dt rounded up (a shorter last step), but
         for the round-off of t_end / dt (6 / 0.015 is 400 steps)."""
+        if self.automatic:
+            raise ValueError("dt='auto': the number of steps is the Simulation's (num_steps)")
         return max(1, math.ceil(self.t_end / self.dt - 1e-9))
 
 
@@ -259,7 +271,7 @@ class Discretisation:
         )
         require_choice(self.mass, MASS_MATRICES, "mass", "mass")
         require(
-            self.mass == "consistent" or self.degree == 1,
+            self.mass != "redistributed" or self.degree == 1,
             "mass",
             self.mass,
             f"this mass needs P1 elements, got degree={self.degree!r}",

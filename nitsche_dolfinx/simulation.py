@@ -35,6 +35,7 @@ from .signals import RunInterrupted, StopSignals
 from .solver import SolverError
 from .stepper import NitscheStepper
 from .stepping import Stepper
+from .verlet import ExplicitStepper
 
 __all__ = ["Simulation"]
 
@@ -111,7 +112,13 @@ class Simulation:
         linear_solver: str | None = "auto",
         max_step_cuts: int = 5,
     ):
-        time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        explicit = getattr(scheme, "explicit", False)
+        if not explicit:
+            require(
+                not (isinstance(dt, str) and dt == "auto"), "dt", dt,
+                "an automatic step is the verlet scheme's (its stable step): give tau",
+            )  # fmt: skip
+            time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
         with garbage_collected_together(problem.mesh.comm):
@@ -119,13 +126,17 @@ class Simulation:
             chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
             if linear_solver == "auto" and chosen:
                 linear_solver = None  # the user chose the linear solver: no preset
-            if linear_solver is None:  # the default direct solve with the user's options
+            if explicit:
+                preset = LinearSolver("none", {}, 0, description="none (explicit)")
+            elif linear_solver is None:  # the default direct solve with the user's options
                 preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
             else:
                 preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
             #: The linear solver in words, for summaries.
             self.solver_description = preset.description
-            if problem.method == "mixed":
+            if explicit:
+                self.stepper = ExplicitStepper(problem, scheme, dt, t_end)
+            elif problem.method == "mixed":
                 self.stepper: Stepper = MixedStepper(
                     problem, scheme, time_stepping, petsc_options, preset
                 )
@@ -313,6 +324,12 @@ class _Run:
             if saved.changes:
                 self.log_changes(saved)
         self.progress = Progress(sim.progress, self.comm, sim.t, sim.t_end)
+        stable = getattr(sim.stepper, "stable_dt", None)
+        if stable is not None:  # an explicit scheme: the step it runs against its limit
+            self.progress.write(
+                f"{sim.scheme.describe()}: estimated stable step {stable:.6g}, dt = {sim.dt:.6g} "
+                f"({sim.dt / stable:.3g} of it)"
+            )
         if self.out is None:
             return
         path = os.path.join(self.out, "history.csv")

@@ -124,14 +124,20 @@ def _check_scheme(problem: ContactProblem, scheme: TimeScheme, dt: float) -> Non
             "alternate around the obstacle (measured: E grows 48-fold on the bar); use "
             "the redistributed mass with Crank-Nicolson, theta or Newmark",
         )
+    if problem.mass == "lumped" and problem.degree > 1:
+        raise ParameterError(
+            "mass", problem.mass,
+            "the P2 lumped (HRZ) mass is for the verlet scheme: the implicit schemes would "
+            "take the body force consistently (none on the vertices) against a lumped mass",
+        )  # fmt: skip
     if scheme.displacement_coefficient(dt) == 0.0:
         raise ParameterError(
             "scheme",
             scheme.describe(),
             "theta = 0 and Newmark beta = 0 are explicit: u^{n+1} is known before the "
             "step's solve, whose equation then has no stiffness (nor contact) part for "
-            "this implicit stepper to solve, and no time step limit is checked; use "
-            "theta > 0 or beta > 0",
+            "this implicit stepper to solve, and no time step limit is checked; use the "
+            "verlet scheme (explicit, with its stable step), or theta > 0 or beta > 0",
         )
 
 

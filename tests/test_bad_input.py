@@ -116,7 +116,11 @@ API = {
     "method-unknown": (lambda: bar(method="lagrange"), "method='lagrange'"),
     "mass-unknown": (lambda: bar(mass="heavy"), "mass='heavy'"),
     "degree-3": (lambda: bar(degree=3), "degree=3"),
-    "lumped-p2": (lambda: bar(degree=2, mass="lumped"), "mass='lumped'"),
+    "redistributed-p2": (lambda: bar(degree=2, mass="redistributed"), "mass='redistributed'"),
+    "lumped-p2-implicit": (
+        lambda: Simulation(bar(degree=2, mass="lumped"), HybridScheme(), dt=0.1, t_end=0.2),
+        "mass='lumped': the P2 lumped (HRZ) mass is for the verlet scheme",
+    ),
     "mixed-with-friction": (lambda: ring(method="mixed", friction=0.1), "friction=0.1"),
     "E-inf": (lambda: Material(E=math.inf, nu=0.3), "E=inf"),
     "E-string": (lambda: Material(E="1000", nu=0.3), "E='1000': Young's modulus must be a number"),
@@ -383,9 +387,9 @@ TOML = {
         {"gamma0 = 1e-6": 'gamma0 = 1e-6\nmethod = "mixed"\nfriction = 0.1'},
         "[nitsche] friction = 0.1: the mixed method is frictionless",
     ),
-    "lumped-p2": (
-        {"degree = 1": 'degree = 2\nmass = "lumped"'},
-        "[mesh] mass = 'lumped': this mass needs P1 elements",
+    "redistributed-p2": (
+        {"degree = 1": 'degree = 2\nmass = "redistributed"'},
+        "[mesh] mass = 'redistributed': this mass needs P1 elements",
     ),
     "quadrature-negative": (
         {"degree = 1": "degree = 1\nquadrature_degree = -1"},

@@ -78,7 +78,7 @@ def test_cli_subprocess_progress_and_quiet(tmp_path):
     "replace, named",
     [
         ({"[scheme]": "[scheme]\ntau = 0.1"}, "unknown key 'tau'"),
-        ({"dt = 0.005": 'dt = "fast"'}, "dt must be a number, got 'fast'"),
+        ({"dt = 0.005": 'dt = "fast"'}, "dt must be a number or \"auto\", got 'fast'"),
         ({'file = "ring_2d.msh"': 'file = "missing.msh"'}, "missing.msh' does not exist"),
         ({"tag = 1": "tag = 42"}, "facet tag 42 is not in the mesh"),
         ({"[scheme]": "[schemes]"}, "unknown table [schemes]"),

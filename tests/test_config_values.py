@@ -172,7 +172,7 @@ def test_schema_lists_every_key_with_its_default(capsys):
         section = text[text.index(f"\n{name} = {{ ... }}") :]
         for key, spec in table.keys.items():
             assert f"  {key:18s} {spec.kind:14s}" in section, (name, key)
-    assert 'default: "hybrid"' in text and "time step tau; required" in text
+    assert 'default: "hybrid"' in text and 'time step tau (verlet: "auto"' in text
     assert cli(["schema"]) == 0
     printed = capsys.readouterr().out
     assert cli(["--help-config"]) == 0

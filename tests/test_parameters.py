@@ -44,7 +44,7 @@ from nitsche_dolfinx.schemes import SCHEMES, make_scheme
         (lambda: NitscheParameters(method="lagrange"), "method", "lagrange"),
         (lambda: NitscheParameters(method="mixed", friction=0.2), "friction", 0.2),
         (lambda: Discretisation(degree=3), "degree", 3),
-        (lambda: Discretisation(degree=2, mass="lumped"), "mass", "lumped"),
+        (lambda: Discretisation(degree=2, mass="redistributed"), "mass", "redistributed"),
         (lambda: OutputParameters(output_every=-1), "output_every", -1),
         (lambda: OutputParameters(checkpoint_every=1.5), "checkpoint_every", 1.5),
         (lambda: make_scheme("theta", theta=1.5), "theta", 1.5),
@@ -68,8 +68,9 @@ def test_an_entry_point_names_the_value_its_own_way():
 
 
 def test_schemes_are_looked_up_by_name_with_their_own_parameters():
-    assert set(SCHEMES) == {"hybrid", "theta", "newmark", "cn"}
+    assert set(SCHEMES) == {"hybrid", "theta", "newmark", "cn", "verlet"}
     assert make_scheme("theta", theta=0.7).describe() == "theta(theta=0.7)"
+    assert make_scheme("verlet", safety=0.3, theta=0.7).describe() == "verlet(safety=0.3)"
     assert make_scheme("newmark", beta=0.5, gamma=1.0).describe() == "newmark(beta=0.5, gamma=1)"
 
 
@@ -94,8 +95,8 @@ def test_demo_flags_keep_their_names_and_defaults():
     assert args == {
         "scheme": "hybrid", "theta": 1.0, "beta": 0.3, "gamma": 0.5, "nitsche_theta": 1.0,
         "gamma0": 1e-6, "gamma0_scaling": "absolute", "degree": 1, "dt": 0.015, "t_end": 6.0,
-        "max_step_cuts": 5, "checkpoint_every": 0, "restart": False, "output_every": 10,
-        "quiet": False, "no_plot": False,
+        "safety": 0.5, "allow_unstable_dt": False, "max_step_cuts": 5, "checkpoint_every": 0,
+        "restart": False, "output_every": 10, "quiet": False, "no_plot": False,
     }  # fmt: skip
     parsed = parser.parse_args(["--degree", "2", "--dt", "0.5", "--scheme", "newmark"])
     assert (parsed.degree, parsed.dt, parsed.scheme) == (2, 0.5, "newmark")

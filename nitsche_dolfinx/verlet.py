@@ -1,0 +1,355 @@
+"""The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md
+section 12): with a diagonal mass, a step is one product with the matrix of the affine
+terms, one assembly of the contact force on Gamma_C and one division, without Newton and
+without a linear solve.
+
+    u^{n+1} = u^n + tau v^n + tau^2/2 a^n
+    D a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
+                - int_Gamma_C (1/gamma_h) [P_gamma(u^{n+1})]_+ P_Thgamma(.)
+    v^{n+1} = v^n + tau/2 (a^n + a^{n+1})
+
+The stable step is estimated when the stepper is built; ``dt = "auto"`` takes its
+scheme's safety share. Work in progress (issue 29): rigid obstacles, Nitsche's method,
+frictionless, the lumped mass; the others are refused in one line.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from typing import Any
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+from . import compat
+from .collective import sum_over_ranks
+from .contact import positive_part
+from .diagnostics import Diagnostics
+from .dirichlet import DirichletDofs
+from .fields import ContactFields, LevelRefresh
+from .material import von_mises
+from .model import ContactProblem
+from .parameters import ParameterError, TimeStepping, require_positive
+from .schemes import VerletScheme
+from .solver import SolverError
+from .stepping import (
+    check_initial_gap,
+    checkpoint_description,
+    interpolate_initial,
+)
+from .timelevels import TimeLevels
+
+__all__ = ["ExplicitStepper", "UnstableStep", "VerletScheme"]
+
+#: A blow-up: kinetic + elastic energy above this many times its largest value up to
+#: :data:`BLOWUP_WINDOW` steps before (an unstable explicit step grows geometrically).
+BLOWUP_FACTOR = 100.0
+BLOWUP_WINDOW = 100
+
+
+class UnstableStep(SolverError):
+    """The explicit steps blew up: the energy grew geometrically or is no longer finite.
+    Smaller steps from here would not undo it: the run stops (``cut_may_help`` False)."""
+
+    cut_may_help = False
+
+    def __init__(self, energy: float, reference: float, dt: float, stable_dt: float):
+        self.energy, self.reference = energy, reference
+        self.dt, self.stable_dt = dt, stable_dt
+        super().__init__(0, 0, float("nan"))
+        self.reason_name = "UNSTABLE"
+
+    def _message(self) -> str:
+        where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
+        return (
+            f"{where}the verlet steps blew up: kinetic + elastic energy {self.energy:.6g}, "
+            f"against at most {self.reference:.6g} until {BLOWUP_WINDOW} steps before; "
+            f"dt = {self.dt:.6g} for an estimated stable step of {self.stable_dt:.6g}: take a "
+            "smaller dt (or safety); a growth at every step whatever dt is gamma0 beyond the "
+            "stability limit of the mesh (gamma0 * E near 1): a smaller gamma0"
+        )
+
+
+def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
+    """Refuse what the explicit steps do not take yet, in one line each."""
+    refusals = [
+        (problem.mass != "lumped", "mass", problem.mass,
+         "the verlet scheme takes the lumped mass (mass='lumped'): the consistent one needs a "
+         "linear solve a step, the redistributed one a solve on its massless contact nodes, "
+         "neither of which it makes yet"),
+        (problem.method != "nitsche", "method", problem.method,
+         "the verlet scheme takes Nitsche's method"),
+        (bool(problem.pairs), "scheme", scheme.describe(),
+         "contact between bodies is not stepped explicitly yet: an implicit scheme"),
+        (problem.frictional, "friction",
+         float(np.asarray(problem.friction.value)) if problem.frictional else None,
+         "the verlet scheme is frictionless"),
+    ]  # fmt: skip
+    for refused, name, value, why in refusals:
+        if refused:
+            raise ParameterError(name, value, why)
+
+
+class ExplicitStepper(TimeLevels):
+    """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
+    a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
+
+    def __init__(self, problem: ContactProblem, scheme: VerletScheme, dt, t_end: float):
+        _check_problem(problem, scheme)
+        self.problem, self.scheme = problem, scheme
+        self.comm = problem.mesh.comm
+        V = problem.V
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.newton_iterations, self.step_seconds = 0, 0.0
+        self.solver = None  # no solve in a step
+        self._dirichlet = DirichletDofs(problem)
+        test = ufl.TestFunction(V)
+        # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
+        # consistent int f . v puts no force on the vertices of triangles, and a falling
+        # body would not fall rigidly
+        # the affine terms (the bulk and A_Thgamma's boundary part) as a matrix assembled
+        # once, and the contact force terms, on Gamma_C only, as a vector each step
+        trial = ufl.TrialFunction(V)
+        affine = problem.bulk_stiffness(trial, test)
+        boundary = problem.traction_load(test)
+        for contact in problem.contacts:
+            affine = affine + contact.affine_terms(trial, test)
+            force = positive_part(contact.projection(self.u))
+            boundary = boundary - contact.force_terms(self.u, self.v, force, test)
+        self._stiffness = fem_petsc.assemble_matrix(fem.form(affine))
+        self._stiffness.assemble()
+        self._force = fem.form(boundary)
+        self._vector = compat.create_vector(V)
+        self._product = compat.create_vector(V)
+        mass = problem.mass_diagonal()
+        with mass.localForm() as local:
+            diagonal = local.array.copy()
+        self._mass = diagonal
+        bs = V.dofmap.index_map_bs
+        self._nodes = len(diagonal) // bs
+        rho = float(problem.material.rho)
+        self._body_mass = diagonal / rho if problem.has_loads else None
+        self._inverse_mass = np.zeros_like(diagonal)
+        massive = diagonal > 0
+        self._inverse_mass[massive] = 1.0 / diagonal[massive]
+        self._inverse_mass[self._dirichlet.dofs] = 0.0  # prescribed: no acceleration of their own
+        #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
+        #: in contact (:func:`largest_eigenvalue`).
+        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._inverse_mass))
+        self._start_levels(TimeStepping(self._resolve(dt), t_end, 0))
+        self.diagnostics = Diagnostics(problem, self.u, self.v)
+        self._contact_fields = None
+        self.friction_dissipation = 0.0
+        self._energy_before = None
+        self._diagnostics_cache = None  # (step index, diagnostics) of the current level
+        self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
+        interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
+        interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
+        self._dirichlet.set_values(self.u.x.array, 0.0)
+        check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
+        problem.set_time(0.0)
+        self._accelerate()
+        initial = self.diagnostics.energies()
+        #: the largest energy scale up to the window (see _check_growth)
+        self._settled = max(self._energy_scale(), abs(initial["potential"]))
+        self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
+
+    def _resolve(self, dt) -> float:
+        """The time step: ``"auto"`` is the scheme's safety share of the stable step; a
+        given one above the stable step is refused unless the scheme allows it."""
+        scheme, stable = self.scheme, self.stable_dt
+        if isinstance(dt, str) and dt == "auto":
+            return round_down(scheme.safety * stable)
+        require_positive(dt, "dt", "the time step")
+        if dt > stable and not scheme.allow_unstable_dt:
+            raise ParameterError(
+                "dt", dt,
+                f"above the verlet scheme's stable step {stable:.6g} (estimated for this "
+                f"mesh, mass, gamma0 and Theta); take dt='auto' ({scheme.safety:g} of it) or "
+                "allow the step explicitly (allow_unstable_dt)",
+            )  # fmt: skip
+        return float(dt)
+
+    def _accelerate(self) -> None:
+        """a = M^-1 (L - B(u)) at the current u (and loads' time)."""
+        vector = self._vector
+        with vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(vector, self._force)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._stiffness.mult(compat.petsc_vector(self.u), self._product)
+        vector.axpy(-1.0, self._product)
+        vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        with vector.localForm() as local:
+            force = local.array
+            if self._body_mass is not None:
+                force = force + self._body_mass * np.tile(self.problem.body_force(), self._nodes)
+            self.a.x.array[:] = force * self._inverse_mass
+
+    def step(self, t_new: float | None = None, cuts: int = 0) -> int:
+        """One Verlet step to ``t_new`` (default: the next level); returns 0 (no Newton)."""
+        start = time.perf_counter()
+        t_new, dt = self._step_to(t_new)
+        u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
+        for previous, array in zip(self._previous, (u, v, a)):
+            previous[:] = array
+        self._energy_before = self._diagnostics()["energy_theta"]
+        u += dt * v + dt**2 / 2 * a
+        self._dirichlet.set_values(u, t_new)
+        self.problem.set_time(t_new)
+        self._accelerate()
+        v += dt / 2 * (self._previous[2] + a)
+        if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
+            dofs = self._dirichlet.prescribed
+            v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
+        self._check_growth(self._energy_scale(), dt, t_new)
+        self._arrive(t_new, dt, cuts)
+        self.step_seconds = time.perf_counter() - start
+        return 0
+
+    def _energy_scale(self) -> float:
+        """1/2 v.M v + |1/2 u.K u| (K: the affine terms), from the last force evaluation: a
+        measure of the energy for the blow-up check, without assembly."""
+        n = self._product.getLocalSize()
+        u, v = self.u.x.array[:n], self.v.x.array[:n]
+        with self._product.localForm() as local:
+            ku = local.array[:n]
+        mass = self._mass[:n]
+        kinetic, elastic = sum_over_ranks(self.comm, [v @ (mass * v), u @ ku]) / 2
+        return float(kinetic + abs(elastic))
+
+    def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
+        """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up: the energy
+        scale (:meth:`_energy_scale`) not finite, or above :data:`BLOWUP_FACTOR` times its
+        largest value up to :data:`BLOWUP_WINDOW` steps before, or the loads' potential at
+        t = 0 (a body at rest may start moving)."""
+        recent = self._recent
+        reference = self._settled  # up to the window before: a blow-up cannot raise it
+        if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
+            recent.append(energy)
+            if len(recent) > BLOWUP_WINDOW:
+                self._settled = max(self._settled, recent.popleft())
+            return
+        for previous, array in zip(self._previous, (self.u, self.v, self.a)):
+            array.x.array[:] = previous
+        self._diagnostics_cache = None
+        error = UnstableStep(energy, reference, dt, self.stable_dt)
+        error.add_context(step=self.step_index + 1, t=t_new)
+        raise error
+
+    def _diagnostics(self, columns=()) -> dict[str, float]:
+        """The diagnostics of the current level (the optional ones that ``columns`` name;
+        None: all), each computed once per level."""
+        cached = self._diagnostics_cache
+        if cached is None or cached[0] != self.step_index:
+            self._diagnostics_cache = (self.step_index, self.diagnostics.compute(columns))
+        else:
+            self.diagnostics.complete(cached[1], columns)
+        return self._diagnostics_cache[1]
+
+    def state(self, columns=None) -> dict[str, float]:
+        values = {"t": self.t, **self._diagnostics(columns)}
+        values["friction_dissipation"] = 0.0
+        values["energy_balance_residual"] = (
+            0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
+        )
+        values["newton_iterations"] = 0
+        values["step_seconds"] = self.step_seconds
+        values["dt"] = self.last_dt
+        values["step_cuts"] = self.step_cuts
+        return values
+
+    def contact_pressure(self):
+        return self.problem.contacts[0].pressure(self.u)
+
+    def output_fields(self) -> dict:
+        shape = (self.problem.gdim,)
+        fields = {
+            "displacement": (self.u, shape),
+            "velocity": (self.v, shape),
+            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
+        }
+        if self.problem.contacts:
+            if self._contact_fields is None:
+                self._contact_fields = ContactFields(self.problem, self.u)
+            refresh = LevelRefresh(self._contact_fields.update, lambda: (self.step_index, self.t))
+            fields.update(
+                {n: (refresh.wrap(f), s) for n, (f, s) in self._contact_fields.fields().items()}
+            )
+        return fields
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+
+    def describe(self) -> dict[str, Any]:
+        return checkpoint_description(self)
+
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        self._restore_levels(t, step_index, saved)
+        self.step_seconds = 0.0
+        self.problem.set_time(t)
+        self._diagnostics_cache = None
+        self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
+        self._settled, self._recent = max(self._settled, self._energy_scale()), deque()
+
+
+def round_down(value: float, digits: int = 3) -> float:
+    """``value`` rounded down to ``digits`` significant digits: the automatic step is the same
+    on every partition (whose estimates differ by round-off) and reads well."""
+    exponent = int(np.floor(np.log10(value))) - digits + 1
+    return float(f"{int(np.floor(value / 10.0**exponent))}e{exponent}")  # the nearest double
+
+
+def contact_stiffness_form(problem: ContactProblem):
+    """The bilinear form of the operator's derivative with every point of every Gamma_C in
+    contact: the bulk stiffness, the boundary part of A_Thgamma and (1/gamma_h) times the
+    linear part of P_gamma(du) times P_Thgamma(v). For Theta = 1 it bounds the stiffness of
+    every contact state from above (the contact adds a rank-one nonnegative term per
+    quadrature point), so its largest eigenvalue bounds the stable step from below."""
+    V = problem.V
+    du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    form = problem.bulk_stiffness(du, v)
+    for contact in problem.contacts:
+        linear = contact.normal_displacement(du) - contact.gamma_h * contact.sigma_n(du)
+        form = form + contact.consistency_term(du, v) + contact.contact_term(linear, v)
+    return form
+
+
+def largest_eigenvalue(problem: ContactProblem, inverse_mass: np.ndarray, iterations=200,
+                       rtol=1e-6) -> float:  # fmt: skip
+    """The largest eigenvalue of M^-1 K (K: :func:`contact_stiffness_form`, M diagonal,
+    ``inverse_mass`` zero at the dofs without a mass of their own) by power iterations on
+    the symmetric M^-1/2 K M^-1/2, as its Rayleigh quotient (a lower bound that converges
+    from below)."""
+    K = fem_petsc.assemble_matrix(fem.form(contact_stiffness_form(problem)))
+    K.assemble()
+    scale = K.createVecRight()
+    x, y = K.createVecRight(), K.createVecRight()
+    n = scale.getLocalSize()
+    scale.array[:] = np.sqrt(inverse_mass[:n])
+    start = fem.Function(problem.V)  # the same start on every partition: a function of x
+    gdim = problem.gdim
+    start.interpolate(
+        lambda p: np.array([1.0 + 0.5 * np.sin(3.0 * k + 7.1 * p[0] + 5.3 * p[1] + 2.9 * p[2])
+                            for k in range(gdim)])
+    )  # fmt: skip
+    x.array[:] = start.x.array[:n] * (scale.array > 0)
+    x.normalize()
+    estimate = 0.0
+    for _ in range(iterations):
+        y.pointwiseMult(x, scale)
+        z = K.createVecLeft()
+        K.mult(y, z)
+        z.pointwiseMult(z, scale)
+        previous, estimate = estimate, x.dot(z)
+        z.copy(x)
+        x.normalize()
+        if abs(estimate - previous) <= rtol * abs(estimate):
+            break
+    return float(estimate)
