@@ -276,6 +276,21 @@ class Diagnostics:
                 self._each_forms[f"contact_force_{k}"] = fem.form(contact.force(u))
                 self._each_forms[f"contact_area_{k}"] = fem.form(contact.area(u))
         self.penetration = Penetration(model, u)
+        self._level: tuple[int, dict[str, float]] | None = None  # (its index, its values)
+
+    def of_level(self, level: int, columns=()) -> dict[str, float]:
+        """The diagnostics of the time level ``level`` (the optional ones that ``columns``
+        name; None: all), each computed once per level: the state is that level's."""
+        cached = self._level
+        if cached is None or cached[0] != level:
+            self._level = (level, self.compute(columns))
+        else:
+            self.complete(cached[1], columns)
+        return self._level[1]
+
+    def remember(self, level: int, values: dict[str, float] | None) -> None:
+        """Take ``values`` as the diagnostics of ``level`` (None: forget them)."""
+        self._level = None if values is None else (level, values)
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""

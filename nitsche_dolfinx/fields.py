@@ -22,9 +22,11 @@ from petsc4py import PETSc
 from . import compat
 from .contact import heaviside, positive_part
 from .diagnostics import BoundaryField
+from .material import von_mises
 
 __all__ = [
     "ContactFields",
+    "body_fields",
     "LevelRefresh",
     "NodalMean",
     "OnBoundary",
@@ -32,6 +34,17 @@ __all__ = [
     "SurfaceValues",
     "boundary_nodes",
 ]
+
+
+def body_fields(problem, u, v) -> dict:
+    """The fields of the whole body for the output: displacement, velocity and the von
+    Mises stress, as ``{name: (source, value shape)}``."""
+    shape = (problem.gdim,)
+    return {
+        "displacement": (u, shape),
+        "velocity": (v, shape),
+        "von_mises": (von_mises(u, problem.material_constants), ()),
+    }
 
 
 class NodalMean:

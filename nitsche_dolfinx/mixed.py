@@ -32,9 +32,8 @@ from . import compat
 from .contact import positive_part
 from .diagnostics import MassMoments, Penetration, assemble_global
 from .dirichlet import DirichletDofs
-from .fields import ContactFields, LevelRefresh
+from .fields import ContactFields, LevelRefresh, body_fields
 from .linear_solvers import LinearSolver
-from .material import von_mises
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
 from .schemes import CrankNicolson
@@ -293,7 +292,6 @@ class MixedStepper(TimeLevels):
         """Displacement, velocity, von Mises stress and the contact fields of
         :class:`~nitsche_dolfinx.fields.ContactFields`, with the multiplier lambda (zero
         off Gamma_C) as ``contact_pressure`` and lambda < 0 as the contact set."""
-        shape = (self.problem.gdim,)
         if self._contact_fields is None:  # compiled when first asked for
             in_contact = ufl.conditional(ufl.lt(self._lambda, 0.0), 1.0, 0.0)
             self._contact_fields = ContactFields(
@@ -303,12 +301,7 @@ class MixedStepper(TimeLevels):
         contact = {
             name: (refresh.wrap(f), s) for name, (f, s) in self._contact_fields.fields().items()
         }
-        return {
-            "displacement": (self.u, shape),
-            "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
-            **contact,
-        }
+        return {**body_fields(self.problem, self.u, self.v), **contact}
 
     def _update_projections(self) -> None:
         """The multiplier and the contact fields' projections at the state."""

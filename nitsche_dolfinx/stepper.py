@@ -23,10 +23,9 @@ from . import compat
 from .contact_terms import ContactTerms, contact_activity, contact_parts
 from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
-from .fields import ContactFields, LevelRefresh, OnBoundary
+from .fields import ContactFields, LevelRefresh, OnBoundary, body_fields
 from .friction import FrictionOutput, GuardedNewton
 from .linear_solvers import LinearSolver
-from .material import von_mises
 from .model import ContactProblem
 from .pair_coupling import PairCoupling
 from .parameters import ParameterError, TimeStepping, require
@@ -195,7 +194,6 @@ class NitscheStepper(TimeLevels):
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
         self._energy_before = None  # E_Theta^n of the last step
-        self._diagnostics_cache = None  # (step index, diagnostics) of the current level
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
         self._contact_fields = None  # ContactFields, once the output asks for them
@@ -224,7 +222,7 @@ class NitscheStepper(TimeLevels):
         """Diagnostics at the current time level, identical on every rank: those of every
         level, and the optional ones (:class:`~nitsche_dolfinx.diagnostics.Diagnostics`)
         that ``columns`` name (None: all)."""
-        values = {"t": self.t, **self._diagnostics(columns)}
+        values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
         values["friction_dissipation"] = self.friction_dissipation
         values["energy_balance_residual"] = (
             0.0
@@ -279,19 +277,9 @@ class NitscheStepper(TimeLevels):
             self._dt.value = dt
             self.solver.update_constant_terms()
 
-    def _diagnostics(self, columns=()) -> dict[str, float]:
-        """The diagnostics of the current level (the optional ones that ``columns`` name;
-        None: all), each computed once per level."""
-        cached = self._diagnostics_cache
-        if cached is None or cached[0] != self.step_index:
-            self._diagnostics_cache = (self.step_index, self.diagnostics.compute(columns))
-        else:
-            self.diagnostics.complete(cached[1], columns)
-        return self._diagnostics_cache[1]
-
     def _energy_theta(self) -> float:
         """E_Theta at the current level."""
-        return self._diagnostics()["energy_theta"]
+        return self.diagnostics.of_level(self.step_index)["energy_theta"]
 
     def _check_energy_control(self, iterations: int, t_new: float) -> None:
         """Refuse the new state just written to u, v, a if E_Theta does not control it
@@ -299,7 +287,7 @@ class NitscheStepper(TimeLevels):
         :class:`UncontrolledStep` raised."""
         values = self.diagnostics.energies()
         if energy_controlled(values):
-            self._diagnostics_cache = (self.step_index + 1, values)
+            self.diagnostics.remember(self.step_index + 1, values)
             return
         for previous, function in zip(self._previous, (self.u, self.v, self.a)):
             function.x.array[:] = previous
@@ -341,11 +329,7 @@ class NitscheStepper(TimeLevels):
         status) and with friction the slip velocity and the friction traction
         (:class:`~nitsche_dolfinx.friction.FrictionOutput`)."""
         shape = (self.problem.gdim,)
-        fields = {
-            "displacement": (self.u, shape),
-            "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
-        }
+        fields = body_fields(self.problem, self.u, self.v)
         if self.problem.contacts:
             if self._contact_fields is None:  # compiled when first asked for
                 self._contact_fields = ContactFields(self.problem, self.u)
@@ -379,7 +363,7 @@ class NitscheStepper(TimeLevels):
         self._restore_levels(t, step_index, saved)
         # (an int: the last iterate at which the set moved; a bool in older checkpoints)
         self.solver.linear_tolerances.last_move = int(saved.get("contact_set_moved", 0))
-        self._diagnostics_cache = None  # the loaded state's are computed anew
+        self.diagnostics.remember(step_index, None)  # the loaded state's are computed anew
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0
         self.problem.set_time(t)

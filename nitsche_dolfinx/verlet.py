@@ -30,8 +30,7 @@ from .collective import sum_over_ranks
 from .contact import positive_part
 from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
-from .fields import ContactFields, LevelRefresh
-from .material import von_mises
+from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping, require_positive
 from .schemes import VerletScheme
@@ -147,7 +146,6 @@ class ExplicitStepper(TimeLevels):
         self._contact_fields = None
         self.friction_dissipation = 0.0
         self._energy_before = None
-        self._diagnostics_cache = None  # (step index, diagnostics) of the current level
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
@@ -199,7 +197,7 @@ class ExplicitStepper(TimeLevels):
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
         for previous, array in zip(self._previous, (u, v, a)):
             previous[:] = array
-        self._energy_before = self._diagnostics()["energy_theta"]
+        self._energy_before = self.diagnostics.of_level(self.step_index)["energy_theta"]
         u += dt * v + dt**2 / 2 * a
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
@@ -238,23 +236,13 @@ class ExplicitStepper(TimeLevels):
             return
         for previous, array in zip(self._previous, (self.u, self.v, self.a)):
             array.x.array[:] = previous
-        self._diagnostics_cache = None
+        self.diagnostics.remember(self.step_index, None)
         error = UnstableStep(energy, reference, dt, self.stable_dt)
         error.add_context(step=self.step_index + 1, t=t_new)
         raise error
 
-    def _diagnostics(self, columns=()) -> dict[str, float]:
-        """The diagnostics of the current level (the optional ones that ``columns`` name;
-        None: all), each computed once per level."""
-        cached = self._diagnostics_cache
-        if cached is None or cached[0] != self.step_index:
-            self._diagnostics_cache = (self.step_index, self.diagnostics.compute(columns))
-        else:
-            self.diagnostics.complete(cached[1], columns)
-        return self._diagnostics_cache[1]
-
     def state(self, columns=None) -> dict[str, float]:
-        values = {"t": self.t, **self._diagnostics(columns)}
+        values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
         values["friction_dissipation"] = 0.0
         values["energy_balance_residual"] = (
             0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
@@ -269,12 +257,7 @@ class ExplicitStepper(TimeLevels):
         return self.problem.contacts[0].pressure(self.u)
 
     def output_fields(self) -> dict:
-        shape = (self.problem.gdim,)
-        fields = {
-            "displacement": (self.u, shape),
-            "velocity": (self.v, shape),
-            "von_mises": (von_mises(self.u, self.problem.material_constants), ()),
-        }
+        fields = body_fields(self.problem, self.u, self.v)
         if self.problem.contacts:
             if self._contact_fields is None:
                 self._contact_fields = ContactFields(self.problem, self.u)
@@ -294,7 +277,7 @@ class ExplicitStepper(TimeLevels):
         self._restore_levels(t, step_index, saved)
         self.step_seconds = 0.0
         self.problem.set_time(t)
-        self._diagnostics_cache = None
+        self.diagnostics.remember(self.step_index, None)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
         self._settled, self._recent = max(self._settled, self._energy_scale()), deque()
 
