@@ -113,12 +113,11 @@ class Simulation:
         max_step_cuts: int = 5,
     ):
         explicit = getattr(scheme, "explicit", False)
-        if not explicit:
-            require(
-                not (isinstance(dt, str) and dt == "auto"), "dt", dt,
-                "an automatic step is the verlet scheme's (its stable step): give tau",
-            )  # fmt: skip
-            time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        time_stepping = TimeStepping(dt, t_end, max_step_cuts)
+        require(
+            explicit or not time_stepping.automatic, "dt", dt,
+            "an automatic step is the verlet scheme's (its stable step): give tau",
+        )  # fmt: skip
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
         with garbage_collected_together(problem.mesh.comm):
@@ -135,7 +134,7 @@ class Simulation:
             #: The linear solver in words, for summaries.
             self.solver_description = preset.description
             if explicit:
-                self.stepper = ExplicitStepper(problem, scheme, dt, t_end)
+                self.stepper = ExplicitStepper(problem, scheme, time_stepping)
             elif problem.method == "mixed":
                 self.stepper: Stepper = MixedStepper(
                     problem, scheme, time_stepping, petsc_options, preset

@@ -32,7 +32,7 @@ from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
-from .parameters import ParameterError, TimeStepping, require_positive
+from .parameters import ParameterError, TimeStepping
 from .schemes import VerletScheme
 from .solver import SolverError
 from .stepping import (
@@ -97,7 +97,7 @@ class ExplicitStepper(TimeLevels):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
     a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
 
-    def __init__(self, problem: ContactProblem, scheme: VerletScheme, dt, t_end: float):
+    def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping):
         _check_problem(problem, scheme)
         self.problem, self.scheme = problem, scheme
         self.comm = problem.mesh.comm
@@ -141,7 +141,7 @@ class ExplicitStepper(TimeLevels):
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
         #: in contact (:func:`largest_eigenvalue`).
         self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._inverse_mass))
-        self._start_levels(TimeStepping(self._resolve(dt), t_end, 0))
+        self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._contact_fields = None
         self.friction_dissipation = 0.0
@@ -158,13 +158,12 @@ class ExplicitStepper(TimeLevels):
         self._settled = max(self._energy_scale(), abs(initial["potential"]))
         self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
 
-    def _resolve(self, dt) -> float:
+    def _resolve(self, time_stepping: TimeStepping) -> float:
         """The time step: ``"auto"`` is the scheme's safety share of the stable step; a
         given one above the stable step is refused unless the scheme allows it."""
-        scheme, stable = self.scheme, self.stable_dt
-        if isinstance(dt, str) and dt == "auto":
+        scheme, stable, dt = self.scheme, self.stable_dt, time_stepping.dt
+        if time_stepping.automatic:
             return round_down(scheme.safety * stable)
-        require_positive(dt, "dt", "the time step")
         if dt > stable and not scheme.allow_unstable_dt:
             raise ParameterError(
                 "dt", dt,
