@@ -394,9 +394,7 @@ class ContactProblem:
         form = ufl.inner(zero, v) * self.dx
         for force in self._body_forces:
             form = form + ufl.inner(force.constant, v) * self.dx
-        for tag, traction in self._tractions:
-            form = form + ufl.inner(traction.constant, v) * self.ds(tag)
-        return form
+        return self._with_tractions(form, v)
 
     def body_force(self) -> np.ndarray:
         """The sum of the body forces at the current time (zero without any)."""
@@ -408,7 +406,10 @@ class ContactProblem:
     def traction_load(self, v):
         """The tractions' part of L(t)(v): int g_N . v over their boundaries."""
         zero = fem.Constant(self.mesh, np.zeros(self.gdim))
-        form = ufl.inner(zero, v) * self.ds
+        return self._with_tractions(ufl.inner(zero, v) * self.ds, v)
+
+    def _with_tractions(self, form, v):
+        """``form`` + int g_N . v over each traction's boundary, at the current time."""
         for tag, traction in self._tractions:
             form = form + ufl.inner(traction.constant, v) * self.ds(tag)
         return form
