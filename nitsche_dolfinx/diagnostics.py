@@ -29,6 +29,7 @@ __all__ = [
     "Penetration",
     "PointValue",
     "assemble_global",
+    "assembled_matrix",
 ]
 
 
@@ -114,7 +115,7 @@ def _diagonal_matrix(diagonal):
     return matrix
 
 
-def _assembled(form) -> PETSc.Mat:
+def assembled_matrix(form) -> PETSc.Mat:
     """The matrix of a bilinear form, in blocks of the space's block size (BAIJ: for 3D
     vectors, products about three times faster than AIJ)."""
     compiled = fem.form(form)
@@ -189,7 +190,7 @@ class MassMoments:
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         diagonal = model.mass_diagonal()
         if diagonal is None:
-            self.matrix = _assembled(model.inertia(trial, test))
+            self.matrix = assembled_matrix(model.inertia(trial, test))
         else:  # lumped or redistributed mass: a diagonal matrix
             self.matrix = _diagonal_matrix(diagonal)
             self.matrix.assemble()
@@ -258,7 +259,7 @@ class Diagnostics:
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         self.moments = MassMoments(model)
-        self._stiffness = _assembled(model.bulk_stiffness(trial, test))
+        self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
         self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         # without loads the potential is zero: no form to assemble each step

@@ -28,7 +28,7 @@ from petsc4py import PETSc
 from . import compat
 from .collective import sum_over_ranks
 from .contact import positive_part
-from .diagnostics import Diagnostics
+from .diagnostics import Diagnostics, assembled_matrix
 from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
@@ -109,11 +109,9 @@ class ExplicitStepper(TimeLevels):
         self.solver = None  # no solve in a step
         self._dirichlet = DirichletDofs(problem)
         test = ufl.TestFunction(V)
-        # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
-        # consistent int f . v puts no force on the vertices of triangles, and a falling
-        # body would not fall rigidly
         # the affine terms (the bulk and A_Thgamma's boundary part) as a matrix assembled
-        # once, and the contact force terms, on Gamma_C only, as a vector each step
+        # once (blocked: faster products), and the contact force terms, on Gamma_C only,
+        # as a vector each step
         trial = ufl.TrialFunction(V)
         affine = problem.bulk_stiffness(trial, test)
         boundary = problem.traction_load(test)
@@ -121,8 +119,7 @@ class ExplicitStepper(TimeLevels):
             affine = affine + contact.affine_terms(trial, test)
             force = positive_part(contact.projection(self.u))
             boundary = boundary - contact.force_terms(self.u, self.v, force, test)
-        self._stiffness = fem_petsc.assemble_matrix(fem.form(affine))
-        self._stiffness.assemble()
+        self._stiffness = assembled_matrix(affine)
         self._force = fem.form(boundary)
         self._vector = compat.create_vector(V)
         self._product = compat.create_vector(V)
@@ -132,6 +129,9 @@ class ExplicitStepper(TimeLevels):
         self._mass = diagonal
         bs = V.dofmap.index_map_bs
         self._nodes = len(diagonal) // bs
+        # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
+        # consistent int f . v puts no force on the vertices of triangles, and a falling
+        # body would not fall rigidly
         rho = float(problem.material.rho)
         self._body_mass = diagonal / rho if problem.has_loads else None
         self._inverse_mass = np.zeros_like(diagonal)
@@ -140,7 +140,9 @@ class ExplicitStepper(TimeLevels):
         self._inverse_mass[self._dirichlet.dofs] = 0.0  # prescribed: no acceleration of their own
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
         #: in contact (:func:`largest_eigenvalue`).
-        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._inverse_mass))
+        self.stable_dt = 2.0 / np.sqrt(
+            largest_eigenvalue(problem, self._stiffness, self._inverse_mass)
+        )
         self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._contact_fields = None
@@ -289,30 +291,30 @@ def round_down(value: float, digits: int = 3) -> float:
 
 
 def contact_stiffness_form(problem: ContactProblem):
-    """The bilinear form of the operator's derivative with every point of every Gamma_C in
-    contact: the bulk stiffness, the boundary part of A_Thgamma and (1/gamma_h) times the
-    linear part of P_gamma(du) times P_Thgamma(v). For Theta = 1 it bounds the stiffness of
-    every contact state from above (the contact adds a rank-one nonnegative term per
-    quadrature point), so its largest eigenvalue bounds the stable step from below."""
-    V = problem.V
-    du, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    form = problem.bulk_stiffness(du, v)
+    """The contact's part of the operator's derivative with every point of every Gamma_C in
+    contact: (1/gamma_h) times the linear part of P_gamma(du) times P_Thgamma(v) (None
+    without contact). With the affine terms (the bulk and A_Thgamma's boundary part) it
+    makes the stiffness of that state. For Theta = 1 this bounds the stiffness of every
+    contact state from above (the contact adds a rank-one nonnegative term per quadrature
+    point), so its largest eigenvalue bounds the stable step from below."""
+    du, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
+    form = None
     for contact in problem.contacts:
         linear = contact.normal_displacement(du) - contact.gamma_h * contact.sigma_n(du)
-        form = form + contact.consistency_term(du, v) + contact.contact_term(linear, v)
+        term = contact.contact_term(linear, v)
+        form = term if form is None else form + term
     return form
 
 
-def largest_eigenvalue(problem: ContactProblem, inverse_mass: np.ndarray, iterations=200,
-                       rtol=1e-6) -> float:  # fmt: skip
-    """The largest eigenvalue of M^-1 K (K: :func:`contact_stiffness_form`, M diagonal,
-    ``inverse_mass`` zero at the dofs without a mass of their own) by power iterations on
-    the symmetric M^-1/2 K M^-1/2, as its Rayleigh quotient (a lower bound that converges
-    from below)."""
-    K = fem_petsc.assemble_matrix(fem.form(contact_stiffness_form(problem)))
-    K.assemble()
-    scale = K.createVecRight()
-    x, y = K.createVecRight(), K.createVecRight()
+def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, inverse_mass: np.ndarray,
+                       iterations=200, rtol=1e-6) -> float:  # fmt: skip
+    """The largest eigenvalue of M^-1 K, K = ``affine`` (the matrix of the affine terms)
+    plus :func:`contact_stiffness_form`, M diagonal (``inverse_mass`` zero at the dofs
+    without a mass of their own), by power iterations on the symmetric M^-1/2 K M^-1/2, as
+    its Rayleigh quotient (a lower bound that converges from below)."""
+    form = contact_stiffness_form(problem)
+    contact = None if form is None else assembled_matrix(form)
+    scale, x, y, z = (affine.createVecRight() for _ in range(4))
     n = scale.getLocalSize()
     scale.array[:] = np.sqrt(inverse_mass[:n])
     start = fem.Function(problem.V)  # the same start on every partition: a function of x
@@ -326,12 +328,15 @@ def largest_eigenvalue(problem: ContactProblem, inverse_mass: np.ndarray, iterat
     estimate = 0.0
     for _ in range(iterations):
         y.pointwiseMult(x, scale)
-        z = K.createVecLeft()
-        K.mult(y, z)
+        affine.mult(y, z)
+        if contact is not None:
+            contact.multAdd(y, z, z)
         z.pointwiseMult(z, scale)
         previous, estimate = estimate, x.dot(z)
         z.copy(x)
         x.normalize()
         if abs(estimate - previous) <= rtol * abs(estimate):
             break
+    for obj in (scale, x, y, z) if contact is None else (scale, x, y, z, contact):
+        obj.destroy()
     return float(estimate)
