@@ -124,14 +124,15 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
                   "safety": args.safety, "allow_unstable_dt": args.allow_unstable_dt}  # fmt: skip
     if compared:
         parameters.update(IMPACT_SCHEMES[scheme])
+    time_scheme = make_scheme(scheme, **parameters)
     problem = impact_problem(
         dim=dim, mesh_size=args.mesh_size, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, friction=args.mu,
         tangential_velocity=args.tangential_velocity, gamma0_scaling=args.gamma0_scaling,
-        mass="lumped" if scheme == "verlet" else "consistent",
+        mass="lumped" if time_scheme.explicit else "consistent",
     )  # fmt: skip
     simulation = Simulation(
-        problem, make_scheme(scheme, **parameters), dt=args.dt if dt is None else dt,
+        problem, time_scheme, dt=args.dt if dt is None else dt,
         t_end=args.t_end,
         petsc_options=dict(args.petsc), linear_solver=args.linear_solver,
         progress=not (args.quiet or compared), max_step_cuts=args.max_step_cuts,

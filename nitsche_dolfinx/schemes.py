@@ -75,6 +75,8 @@ class TimeScheme:
     """
 
     name = "scheme"
+    #: Whether the scheme is stepped without a solve (:class:`VerletScheme`).
+    explicit = False
     #: The constructor's parameters (the keys :func:`make_scheme` passes): their kind,
     #: default and meaning, for ``[scheme]`` in TOML and the demos' flags.
     parameters: dict[str, Key] = {}

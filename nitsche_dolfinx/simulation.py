@@ -112,7 +112,7 @@ class Simulation:
         linear_solver: str | None = "auto",
         max_step_cuts: int = 5,
     ):
-        explicit = getattr(scheme, "explicit", False)
+        explicit = scheme.explicit
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         require(
             explicit or not time_stepping.automatic, "dt", dt,
