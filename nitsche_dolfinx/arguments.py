@@ -107,6 +107,7 @@ def add_parameter_argument(
 
 #: The flags of :func:`add_method_arguments`, in their order.
 METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--allow-unstable-dt",
+                "--mass-solver",
                 "--nitsche-theta", "--gamma0", "--gamma0-scaling", "--degree", "--dt",
                 "--t-end", "--max-step-cuts")  # fmt: skip
 
@@ -152,6 +153,7 @@ def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> 
     return make_scheme(
         name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma,
         safety=args.safety, allow_unstable_dt=args.allow_unstable_dt,
+        mass_solver=args.mass_solver,
     )  # fmt: skip
 
 

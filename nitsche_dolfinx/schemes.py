@@ -205,16 +205,20 @@ class HybridScheme(TimeScheme):
 #: energy below it (the bar, gamma0 = 0.1, 4 impacts: +0.4% at 0.5, +26% at 0.6, +120% at
 #: 0.8 of the bound), so half of it.
 DEFAULT_SAFETY = 0.5
+#: What the verlet scheme solves a consistent mass with (none: a diagonal mass only).
+MASS_SOLVERS = ("none", "cg")
 
 
 class VerletScheme(TimeScheme):
     """The explicit Verlet (central difference) scheme: Newmark with beta = 0 and
     gamma = 1/2, stepped without a solve by :class:`~nitsche_dolfinx.verlet.ExplicitStepper`
-    (a diagonal mass); ``w = a^{n+1}``.
+    (a diagonal mass, or the consistent one with ``mass_solver="cg"``); ``w = a^{n+1}``.
 
     Args:
         safety: The share of the estimated stable step that ``dt = "auto"`` takes, in (0, 1].
         allow_unstable_dt: Take a given dt above the estimated stable step (else refused).
+        mass_solver: How a step solves with the consistent mass: ``"none"`` (only a
+            diagonal mass is taken) or ``"cg"`` (conjugate gradients with Jacobi).
     """
 
     name = "verlet"
@@ -224,15 +228,21 @@ class VerletScheme(TimeScheme):
                       "dt = auto takes, in (0, 1]"),
         "allow_unstable_dt": Key("boolean", False, "verlet: take a dt above the estimated "
                                  "stable step"),
+        "mass_solver": Key("string", "none", "verlet: the solve a step makes with the "
+                           "consistent mass (none: a diagonal mass only; cg: conjugate "
+                           "gradients with Jacobi)", choices=MASS_SOLVERS),
     }  # fmt: skip
 
-    def __init__(self, safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False):
+    def __init__(self, safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False,
+                 mass_solver: str = "none"):  # fmt: skip
         require_real(safety, "safety", "the safety factor")
         require(0.0 < safety <= 1.0, "safety", safety, "the safety factor must lie in (0, 1]")
         require(isinstance(allow_unstable_dt, bool), "allow_unstable_dt", allow_unstable_dt,
                 "true or false")  # fmt: skip
+        require_choice(mass_solver, MASS_SOLVERS, "mass_solver", "the mass solver")
         self.safety = float(safety)
         self.allow_unstable_dt = allow_unstable_dt
+        self.mass_solver = mass_solver
 
     def kinematics(self, u, v, a, w, dt):
         u1 = u + dt * v + dt**2 / 2 * a
@@ -240,7 +250,8 @@ class VerletScheme(TimeScheme):
         return u1, v1, w
 
     def describe(self):
-        return f"verlet(safety={self.safety:g})"
+        solver = "" if self.mass_solver == "none" else f", mass_solver={self.mass_solver}"
+        return f"verlet(safety={self.safety:g}{solver})"
 
 
 #: The schemes by name: the demos' ``--scheme`` flag and ``[scheme] name`` in TOML. A
@@ -264,12 +275,12 @@ def scheme_parameters() -> dict[str, Key]:
 
 def make_scheme(
     name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5,
-    safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False,
+    safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False, mass_solver: str = "none",
 ) -> TimeScheme:  # fmt: skip
     """The scheme called ``name`` (a key of :data:`SCHEMES`) with the parameters it takes
     (the others are ignored)."""
     require_choice(name, SCHEMES, "scheme", "scheme")
     cls = SCHEMES[name]
     given = {"theta": theta, "beta": beta, "gamma": gamma, "safety": safety,
-             "allow_unstable_dt": allow_unstable_dt}  # fmt: skip
+             "allow_unstable_dt": allow_unstable_dt, "mass_solver": mass_solver}  # fmt: skip
     return cls(**{key: given[key] for key in cls.parameters})

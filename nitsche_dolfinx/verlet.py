@@ -9,8 +9,10 @@ without a linear solve.
     v^{n+1} = v^n + tau/2 (a^n + a^{n+1})
 
 The stable step is estimated when the stepper is built; ``dt = "auto"`` takes its
-scheme's safety share. Work in progress (issue 29): rigid obstacles, Nitsche's method,
-frictionless, the lumped mass; the others are refused in one line.
+scheme's safety share. The mass is lumped, redistributed (its massless contact nodes in
+equilibrium at each level) or consistent with a CG solve a step
+(:mod:`~nitsche_dolfinx.explicit_mass`). Work in progress (issue 29): rigid obstacles,
+Nitsche's method, frictionless; the others are refused in one line.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from .collective import sum_over_ranks
 from .contact import positive_part
 from .diagnostics import Diagnostics, assembled_matrix
 from .dirichlet import DirichletDofs
+from .explicit_mass import ConsistentMass, DiagonalMass, MasslessNodes
 from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
 from .parameters import ParameterError, TimeStepping
@@ -39,6 +42,7 @@ from .stepping import (
     check_initial_gap,
     checkpoint_description,
     interpolate_initial,
+    massless_velocity,
 )
 from .timelevels import TimeLevels
 
@@ -76,10 +80,9 @@ class UnstableStep(SolverError):
 def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
     """Refuse what the explicit steps do not take yet, in one line each."""
     refusals = [
-        (problem.mass != "lumped", "mass", problem.mass,
-         "the verlet scheme takes the lumped mass (mass='lumped'): the consistent one needs a "
-         "linear solve a step, the redistributed one a solve on its massless contact nodes, "
-         "neither of which it makes yet"),
+        (problem.mass == "consistent" and scheme.mass_solver == "none", "mass", problem.mass,
+         "the verlet scheme with the consistent mass needs a linear solve a step: say which "
+         "(mass_solver='cg'), or take mass='lumped'"),
         (problem.method != "nitsche", "method", problem.method,
          "the verlet scheme takes Nitsche's method"),
         (bool(problem.pairs), "scheme", scheme.describe(),
@@ -115,34 +118,33 @@ class ExplicitStepper(TimeLevels):
         trial = ufl.TrialFunction(V)
         affine = problem.bulk_stiffness(trial, test)
         boundary = problem.traction_load(test)
+        forces = None  # the contact's force terms C(u)
         for contact in problem.contacts:
             affine = affine + contact.affine_terms(trial, test)
             force = positive_part(contact.projection(self.u))
-            boundary = boundary - contact.force_terms(self.u, self.v, force, test)
+            term = contact.force_terms(self.u, self.v, force, test)
+            forces = term if forces is None else forces + term
         self._stiffness = assembled_matrix(affine)
-        self._force = fem.form(boundary)
+        self._force = fem.form(boundary if forces is None else boundary - forces)
         self._vector = compat.create_vector(V)
         self._product = compat.create_vector(V)
-        mass = problem.mass_diagonal()
-        with mass.localForm() as local:
-            diagonal = local.array.copy()
-        self._mass = diagonal
-        bs = V.dofmap.index_map_bs
-        self._nodes = len(diagonal) // bs
+        self._work, self._body = self._product.duplicate(), None
+        fixed = self._dirichlet.dofs  # prescribed: no acceleration of their own
+        if problem.mass == "consistent":
+            self._mass = ConsistentMass(V, problem.material.rho, fixed)
+        else:
+            self._mass = DiagonalMass(problem.mass_diagonal(), fixed)
         # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
-        rho = float(problem.material.rho)
-        self._body_mass = diagonal / rho if problem.has_loads else None
-        self._inverse_mass = np.zeros_like(diagonal)
-        massive = diagonal > 0
-        self._inverse_mass[massive] = 1.0 / diagonal[massive]
-        self._inverse_mass[self._dirichlet.dofs] = 0.0  # prescribed: no acceleration of their own
+        if problem.has_loads:
+            self._body = self._product.duplicate()
+        self._massless = MasslessNodes(problem, self.u, forces, self._stiffness, fixed)
+        massless = np.setdiff1d(problem.massless_dofs(), fixed)
+        self._massless_dofs = massless if self._massless.active else massless[:0]
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
         #: in contact (:func:`largest_eigenvalue`).
-        self.stable_dt = 2.0 / np.sqrt(
-            largest_eigenvalue(problem, self._stiffness, self._inverse_mass)
-        )
+        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._stiffness, self._mass))
         self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self._contact_fields = None
@@ -154,7 +156,7 @@ class ExplicitStepper(TimeLevels):
         self._dirichlet.set_values(self.u.x.array, 0.0)
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         problem.set_time(0.0)
-        self._accelerate()
+        self._accelerate(equilibrium=False)
         initial = self.diagnostics.energies()
         #: the largest energy scale up to the window (see _check_growth)
         self._settled = max(self._energy_scale(), abs(initial["potential"]))
@@ -175,8 +177,9 @@ class ExplicitStepper(TimeLevels):
             )  # fmt: skip
         return float(dt)
 
-    def _accelerate(self) -> None:
-        """a = M^-1 (L - B(u)) at the current u (and loads' time)."""
+    def _assemble_force(self) -> tuple[PETSc.Vec, PETSc.Vec]:
+        """The force F = L - B(u) at the current u (and loads' time), its ghosts up to
+        date, and the elastic force K u."""
         vector = self._vector
         with vector.localForm() as local:
             local.set(0.0)
@@ -184,12 +187,23 @@ class ExplicitStepper(TimeLevels):
         vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)
         vector.axpy(-1.0, self._product)
+        if self._body is not None:
+            n = vector.getLocalSize()
+            self._body.array[:] = np.resize(self.problem.body_force(), n)
+            self._mass.mult(self._body, self._work)
+            vector.axpy(1.0 / float(self.problem.material.rho), self._work)
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        with vector.localForm() as local:
-            force = local.array
-            if self._body_mass is not None:
-                force = force + self._body_mass * np.tile(self.problem.body_force(), self._nodes)
-            self.a.x.array[:] = force * self._inverse_mass
+        return vector, self._product
+
+    def _accelerate(self, equilibrium: bool = True) -> None:
+        """a = M^-1 (L - B(u)) at the current u (and loads' time); with massless nodes and
+        ``equilibrium``, their displacement first, from their equilibrium (not at t = 0:
+        the initial displacement is the user's, as for the implicit schemes)."""
+        if self._massless.active and equilibrium:
+            force = self._massless.solve(self._assemble_force)
+        else:
+            force, _ = self._assemble_force()
+        self._mass.divide(force, self.a)
 
     def step(self, t_new: float | None = None, cuts: int = 0) -> int:
         """One Verlet step to ``t_new`` (default: the next level); returns 0 (no Newton)."""
@@ -202,11 +216,17 @@ class ExplicitStepper(TimeLevels):
         u += dt * v + dt**2 / 2 * a
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
-        self._accelerate()
+        try:
+            self._accelerate()
+        except SolverError as error:
+            self._put_back()
+            error.add_context(step=self.step_index + 1, t=t_new)
+            raise
         v += dt / 2 * (self._previous[2] + a)
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
+        massless_velocity(self._massless_dofs, self._previous[0], u, v, a, dt)
         self._check_growth(self._energy_scale(), dt, t_new)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
@@ -216,11 +236,11 @@ class ExplicitStepper(TimeLevels):
         """1/2 v.M v + |1/2 u.K u| (K: the affine terms), from the last force evaluation: a
         measure of the energy for the blow-up check, without assembly."""
         n = self._product.getLocalSize()
+        velocity = compat.petsc_vector(self.v)
+        self._mass.mult(velocity, self._work)
         u, v = self.u.x.array[:n], self.v.x.array[:n]
-        with self._product.localForm() as local:
-            ku = local.array[:n]
-        mass = self._mass[:n]
-        kinetic, elastic = sum_over_ranks(self.comm, [v @ (mass * v), u @ ku]) / 2
+        kinetic, elastic = sum_over_ranks(self.comm, [v @ self._work.array_r,
+                                                      u @ self._product.array_r]) / 2  # fmt: skip
         return float(kinetic + abs(elastic))
 
     def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
@@ -235,12 +255,17 @@ class ExplicitStepper(TimeLevels):
             if len(recent) > BLOWUP_WINDOW:
                 self._settled = max(self._settled, recent.popleft())
             return
-        for previous, array in zip(self._previous, (self.u, self.v, self.a)):
-            array.x.array[:] = previous
-        self.diagnostics.remember(self.step_index, None)
+        self._put_back()
         error = UnstableStep(energy, reference, dt, self.stable_dt)
         error.add_context(step=self.step_index + 1, t=t_new)
         raise error
+
+    def _put_back(self) -> None:
+        """The state of the last level, after a failed step."""
+        for previous, array in zip(self._previous, (self.u, self.v, self.a)):
+            array.x.array[:] = previous
+        self.diagnostics.remember(self.step_index, None)
+        self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
 
     def state(self, columns=None) -> dict[str, float]:
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
@@ -306,37 +331,38 @@ def contact_stiffness_form(problem: ContactProblem):
     return form
 
 
-def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, inverse_mass: np.ndarray,
-                       iterations=200, rtol=1e-6) -> float:  # fmt: skip
+def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass, iterations=200,
+                       rtol=1e-6) -> float:  # fmt: skip
     """The largest eigenvalue of M^-1 K, K = ``affine`` (the matrix of the affine terms)
-    plus :func:`contact_stiffness_form`, M diagonal (``inverse_mass`` zero at the dofs
-    without a mass of their own), by power iterations on the symmetric M^-1/2 K M^-1/2, as
-    its Rayleigh quotient (a lower bound that converges from below)."""
+    plus :func:`contact_stiffness_form`, M the ``mass`` (an
+    :mod:`~nitsche_dolfinx.explicit_mass` mass: zero rows at the dofs without an
+    acceleration of their own, which the estimate leaves out), by power iterations
+    x <- M^-1 K x, as the Rayleigh quotient x.K x / x.M x (a lower bound that converges
+    from below). With massless nodes it is the largest eigenvalue of the massive dofs' K
+    alone, above that of K with the massless nodes in equilibrium: the estimated step is
+    then on the safe side."""
     form = contact_stiffness_form(problem)
     contact = None if form is None else assembled_matrix(form)
-    scale, x, y, z = (affine.createVecRight() for _ in range(4))
-    n = scale.getLocalSize()
-    scale.array[:] = np.sqrt(inverse_mass[:n])
+    x, y, z = (affine.createVecRight() for _ in range(3))
+    n = x.getLocalSize()
     start = fem.Function(problem.V)  # the same start on every partition: a function of x
     gdim = problem.gdim
     start.interpolate(
         lambda p: np.array([1.0 + 0.5 * np.sin(3.0 * k + 7.1 * p[0] + 5.3 * p[1] + 2.9 * p[2])
                             for k in range(gdim)])
     )  # fmt: skip
-    x.array[:] = start.x.array[:n] * (scale.array > 0)
-    x.normalize()
+    x.array[:] = start.x.array[:n] * mass.start_scaling(n)
     estimate = 0.0
     for _ in range(iterations):
-        y.pointwiseMult(x, scale)
-        affine.mult(y, z)
+        affine.mult(x, y)
         if contact is not None:
-            contact.multAdd(y, z, z)
-        z.pointwiseMult(z, scale)
-        previous, estimate = estimate, x.dot(z)
-        z.copy(x)
-        x.normalize()
+            contact.multAdd(x, y, y)
+        mass.mult(x, z)
+        previous, estimate = estimate, x.dot(y) / x.dot(z)
+        mass.solve(y, x)
+        x.scale(1.0 / x.norm())
         if abs(estimate - previous) <= rtol * abs(estimate):
             break
-    for obj in (scale, x, y, z) if contact is None else (scale, x, y, z, contact):
+    for obj in (x, y, z) if contact is None else (x, y, z, contact):
         obj.destroy()
     return float(estimate)
