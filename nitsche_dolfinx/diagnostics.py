@@ -200,18 +200,18 @@ class MassMoments:
         self.centre_names = centre_of_mass_columns(self.bs)
         positions = fem.Function(model.V)
         positions.interpolate(lambda x: x[: self.bs])
-        self._first_moment = self._sums(positions)  # of the undeformed body
+        self._first_moment = self.sums(positions)  # of the undeformed body
         positions.x.array[:] = 1.0
-        self.mass = float(self._sums(positions)[0])
+        self.mass = float(self.sums(positions)[0])
 
-    def _sums(self, function) -> np.ndarray:
+    def sums(self, function) -> np.ndarray:
         """M f summed by component over all ranks (M f stays in the work vector)."""
         self.matrix.mult(compat.petsc_vector(function), self._work)
         return sum_over_ranks(self.comm, self._work.array.reshape(-1, self.bs).sum(axis=0))
 
     def momentum(self, v) -> np.ndarray:
         """The total linear momentum, by component: the rows of M v summed."""
-        return self._sums(v)
+        return self.sums(v)
 
     def kinetic(self, v) -> float:
         """1/2 v . M v."""
@@ -220,12 +220,12 @@ class MassMoments:
 
     def kinetic_and_momentum(self, v) -> tuple[float, np.ndarray]:
         """1/2 v . M v and the momentum, by component."""
-        momentum = self._sums(v)
+        momentum = self.sums(v)
         return 0.5 * self._work.dot(compat.petsc_vector(v)), momentum
 
     def centre_of_mass(self, u) -> np.ndarray:
         """The centre of mass of the body deformed by ``u``, by component."""
-        return (self._first_moment + self._sums(u)) / self.mass
+        return (self._first_moment + self.sums(u)) / self.mass
 
     def values(self, u, v) -> dict[str, float]:
         """The momentum and centre-of-mass columns at the state (u, v)."""
@@ -250,9 +250,12 @@ class Diagnostics:
         model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
         u: Displacement at the current time level.
         v: Velocity at the current time level.
+        potential: The loads' potential -L(t)(u) at the current state, when a stepper
+            computes it itself (the explicit steps' load is lumped as their mass); None:
+            assembled from L.
     """
 
-    def __init__(self, model, u: fem.Function, v: fem.Function):
+    def __init__(self, model, u: fem.Function, v: fem.Function, potential=None):
         self.comm = model.mesh.comm
         self.model = model
         self.u, self.v = u, v
@@ -263,7 +266,8 @@ class Diagnostics:
         self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         # without loads the potential is zero: no form to assemble each step
-        loaded = model.has_loads
+        loaded = model.has_loads and potential is None
+        self._potential = potential if model.has_loads else None
         forms = {
             "potential": -model.load(u) if loaded else None,
             "energy_correction": _total([c.energy_correction(u) for c in model.contacts], zero),
@@ -311,7 +315,7 @@ class Diagnostics:
         names = list(self._forms)
         local = [fem.assemble_scalar(form) for form in self._forms.values()]
         values = dict(zip(names, sum_over_ranks(self.comm, local).tolist()))
-        values.setdefault("potential", 0.0)
+        values.setdefault("potential", 0.0 if self._potential is None else self._potential())
         kinetic = self.moments.kinetic(self.v)
         elastic = self._quadratic(self._stiffness, self.u)
         energy = kinetic + elastic + values["potential"]

@@ -388,6 +388,11 @@ class ContactProblem:
         """Whether a body force or a traction was added (else L = 0)."""
         return bool(self._body_forces or self._tractions)
 
+    @property
+    def has_tractions(self) -> bool:
+        """Whether a traction was added."""
+        return bool(self._tractions)
+
     def load(self, v):
         """L(t)(v) = int f . v + int g_N . v, with the loads at the current time."""
         zero = fem.Constant(self.mesh, np.zeros(self.gdim))

@@ -114,10 +114,9 @@ class ExplicitStepper(TimeLevels):
         test = ufl.TestFunction(V)
         # the affine terms (the bulk and A_Thgamma's boundary part) as a matrix assembled
         # once (blocked: faster products), and the contact force terms, on Gamma_C only,
-        # as a vector each step
+        # and the tractions, on their boundaries only, as a vector each step
         trial = ufl.TrialFunction(V)
         affine = problem.bulk_stiffness(trial, test)
-        boundary = problem.traction_load(test)
         forces = None  # the contact's force terms C(u)
         for contact in problem.contacts:
             affine = affine + contact.affine_terms(trial, test)
@@ -125,10 +124,14 @@ class ExplicitStepper(TimeLevels):
             term = contact.force_terms(self.u, self.v, force, test)
             forces = term if forces is None else forces + term
         self._stiffness = assembled_matrix(affine)
-        self._force = fem.form(boundary if forces is None else boundary - forces)
+        boundary = -forces if forces is not None else None
+        if problem.has_tractions:
+            tractions = problem.traction_load(test)
+            boundary = tractions if boundary is None else tractions + boundary
+        self._force = None if boundary is None else fem.form(boundary)
         self._vector = compat.create_vector(V)
         self._product = compat.create_vector(V)
-        self._work, self._body = self._product.duplicate(), None
+        self._work = self._product.duplicate()
         fixed = self._dirichlet.dofs  # prescribed: no acceleration of their own
         if problem.mass == "consistent":
             self._mass = ConsistentMass(V, problem.material.rho, fixed)
@@ -137,8 +140,7 @@ class ExplicitStepper(TimeLevels):
         # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
-        if problem.has_loads:
-            self._body = self._product.duplicate()
+        self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
         self._massless = MasslessNodes(problem, self.u, forces, self._stiffness, fixed)
         massless = np.setdiff1d(problem.massless_dofs(), fixed)
         self._massless_dofs = massless if self._massless.active else massless[:0]
@@ -146,7 +148,9 @@ class ExplicitStepper(TimeLevels):
         #: in contact (:func:`largest_eigenvalue`).
         self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._stiffness, self._mass))
         self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
-        self.diagnostics = Diagnostics(problem, self.u, self.v)
+        tractions = problem.has_tractions
+        self._tractions = fem.form(-problem.traction_load(self.u)) if tractions else None
+        self.diagnostics = Diagnostics(problem, self.u, self.v, potential=self._potential)
         self._contact_fields = None
         self.friction_dissipation = 0.0
         self._energy_before = None
@@ -183,17 +187,28 @@ class ExplicitStepper(TimeLevels):
         vector = self._vector
         with vector.localForm() as local:
             local.set(0.0)
-        fem_petsc.assemble_vector(vector, self._force)
-        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self._force is not None:
+            fem_petsc.assemble_vector(vector, self._force)
+            vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)
         vector.axpy(-1.0, self._product)
-        if self._body is not None:
-            n = vector.getLocalSize()
-            self._body.array[:] = np.resize(self.problem.body_force(), n)
-            self._mass.mult(self._body, self._work)
-            vector.axpy(1.0 / float(self.problem.material.rho), self._work)
+        if self._unit_loads is not None:
+            vector.array += self.problem.body_force() @ self._unit_loads
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         return vector, self._product
+
+    def _lumped_unit_loads(self) -> np.ndarray:
+        """M e_k / rho for each component k (owned rows): the body force f, constant in
+        space, is f @ these."""
+        unit, bs = self._product.duplicate(), self.problem.V.dofmap.index_map_bs
+        loads = np.zeros((bs, unit.getLocalSize()))
+        for k in range(bs):
+            unit.array[:] = 0.0
+            unit.array[k::bs] = 1.0
+            self._mass.mult(unit, self._work)
+            loads[k] = self._work.array_r / float(self.problem.material.rho)
+        unit.destroy()
+        return loads
 
     def _accelerate(self, equilibrium: bool = True) -> None:
         """a = M^-1 (L - B(u)) at the current u (and loads' time); with massless nodes and
@@ -231,6 +246,15 @@ class ExplicitStepper(TimeLevels):
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
+
+    def _potential(self) -> float:
+        """-L(t)(u), the body force lumped as the steps take it (M f / rho . u: the sums
+        of M u by component, dotted with f), and the tractions."""
+        moments = self.diagnostics.moments
+        body = -self.problem.body_force() @ moments.sums(self.u) / float(self.problem.material.rho)
+        if self._tractions is None:
+            return float(body)
+        return float(body + sum_over_ranks(self.comm, [fem.assemble_scalar(self._tractions)])[0])
 
     def _energy_scale(self) -> float:
         """1/2 v.M v + |1/2 u.K u| (K: the affine terms), from the last force evaluation: a
