@@ -29,7 +29,7 @@ from . import __version__
 from .output import ensure_directory
 from .parameter_table import DEMO_DEFAULT, by_flag, by_name
 from .parameters import Discretisation, NitscheParameters, OutputParameters, TimeStepping
-from .schemes import TimeScheme, make_scheme
+from .schemes import SCHEMES, TimeScheme, make_scheme
 
 __all__ = [
     "METHOD_FLAGS",
@@ -112,6 +112,25 @@ METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--allow
                 "--t-end", "--max-step-cuts")  # fmt: skip
 
 
+class _GivenStep(argparse._StoreAction):
+    """``--dt``: stored, and remembered as given (an explicit ``--scheme`` keeps it)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        namespace._dt_given = True
+        super().__call__(parser, namespace, values, option_string)
+
+
+class _Scheme(argparse._StoreAction):
+    """``--scheme``: stored; an explicit scheme (verlet) makes ``--dt`` default to
+    ``auto``, its estimated stable step (``../shared/SPEC.md`` section 9), unless ``--dt``
+    is given, before or after it."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        super().__call__(parser, namespace, values, option_string)
+        if SCHEMES[values].explicit and not getattr(namespace, "_dt_given", False):
+            namespace.dt = "auto"
+
+
 def add_method_arguments(
     parser: argparse.ArgumentParser,
     *,
@@ -126,9 +145,10 @@ def add_method_arguments(
     (the others: the TOML defaults)."""
     given = {"--gamma0": gamma0, "--degree": degree, "--dt": dt, "--t-end": t_end,
              "--beta": beta, "--gamma": gamma}  # fmt: skip
+    actions = {"--max-step-cuts": {"metavar": "N"}, "--dt": {"action": _GivenStep},
+               "--scheme": {"action": _Scheme}}  # fmt: skip
     for flag in METHOD_FLAGS:
-        extra = {"metavar": "N"} if flag == "--max-step-cuts" else {}
-        add_parameter_argument(parser, flag, given.get(flag, TOML_DEFAULT), **extra)
+        add_parameter_argument(parser, flag, given.get(flag, TOML_DEFAULT), **actions.get(flag, {}))
 
 
 def add_run_arguments(parser: argparse.ArgumentParser) -> None:

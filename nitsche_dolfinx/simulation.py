@@ -326,7 +326,7 @@ class _Run:
         stable = getattr(sim.stepper, "stable_dt", None)
         if stable is not None:  # an explicit scheme: the step it runs against its limit
             self.progress.write(
-                f"{sim.scheme.describe()}: estimated stable step {stable:.6g}, dt = {sim.dt:.6g} "
+                f"{sim.scheme.describe()}: stable dt = {stable:.6g} (estimated), dt = {sim.dt:.6g} "
                 f"({sim.dt / stable:.3g} of it)"
             )
         if self.out is None:

@@ -194,4 +194,20 @@ def test_auto_is_the_verlet_scheme_s_and_its_step_is_said_at_start(capsys):
     simulation.run(columns=["t"])
     if MPI.COMM_WORLD.rank == 0:
         said = capsys.readouterr()
-        assert "verlet(safety=0.5): estimated stable step 0.01" in said.out + said.err
+        assert "verlet(safety=0.5): stable dt = 0.01" in said.out + said.err
+
+
+@pytest.mark.parametrize(
+    "flags, dt",
+    [(["--scheme", "verlet"], "auto"), (["--dt", "0.001", "--scheme", "verlet"], 0.001),
+     (["--scheme", "verlet", "--dt", "0.001"], 0.001), (["--scheme", "hybrid"], 0.015)],
+)  # fmt: skip
+def test_an_explicit_scheme_makes_the_demo_step_auto_unless_dt_is_given(flags, dt):
+    """../shared/SPEC.md section 9: with --scheme verlet, --dt defaults to the estimate."""
+    import argparse
+
+    from nitsche_dolfinx.arguments import add_method_arguments
+
+    parser = argparse.ArgumentParser()
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
+    assert parser.parse_args(flags).dt == dt
