@@ -253,17 +253,21 @@ class Diagnostics:
         potential: The loads' potential -L(t)(u) at the current state, when a stepper
             computes it itself (the explicit steps' load is lumped as their mass); None:
             assembled from L.
+        elastic: The elastic energy 1/2 u . K u at the current state, when a stepper has
+            K u at hand (the explicit steps); None: from a stiffness matrix of its own.
     """
 
-    def __init__(self, model, u: fem.Function, v: fem.Function, potential=None):
+    def __init__(self, model, u: fem.Function, v: fem.Function, potential=None, elastic=None):
         self.comm = model.mesh.comm
         self.model = model
         self.u, self.v = u, v
         # the quadratic energies as matrices assembled once: a matrix-vector product per step
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         self.moments = MassMoments(model)
-        self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
-        self._work = self._stiffness.createVecLeft()
+        self._elastic = elastic
+        if elastic is None:
+            self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
+            self._work = self._stiffness.createVecLeft()
         zero = fem.Constant(model.mesh, 0.0) * model.dx
         # without loads the potential is zero: no form to assemble each step
         loaded = model.has_loads and potential is None
@@ -317,7 +321,7 @@ class Diagnostics:
         values = dict(zip(names, sum_over_ranks(self.comm, local).tolist()))
         values.setdefault("potential", 0.0 if self._potential is None else self._potential())
         kinetic = self.moments.kinetic(self.v)
-        elastic = self._quadratic(self._stiffness, self.u)
+        elastic = self._elastic() if self._elastic else self._quadratic(self._stiffness, self.u)
         energy = kinetic + elastic + values["potential"]
         return {
             "energy": energy,

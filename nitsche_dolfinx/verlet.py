@@ -116,14 +116,17 @@ class ExplicitStepper(TimeLevels):
         # once (blocked: faster products), and the contact force terms, on Gamma_C only,
         # and the tractions, on their boundaries only, as a vector each step
         trial = ufl.TrialFunction(V)
-        affine = problem.bulk_stiffness(trial, test)
+        affine = None  # A_Thgamma's boundary part, on Gamma_C: a matrix of its own, whose
+        # product is cheap, so that the bulk's product K u gives the elastic energy
         forces = None  # the contact's force terms C(u)
         for contact in problem.contacts:
-            affine = affine + contact.affine_terms(trial, test)
+            term = contact.affine_terms(trial, test)
+            affine = term if affine is None else affine + term
             force = positive_part(contact.projection(self.u))
             term = contact.force_terms(self.u, self.v, force, test)
             forces = term if forces is None else forces + term
-        self._stiffness = assembled_matrix(affine)
+        self._stiffness = assembled_matrix(problem.bulk_stiffness(trial, test))
+        self._boundary = None if affine is None else assembled_matrix(affine)
         boundary = -forces if forces is not None else None
         if problem.has_tractions:
             tractions = problem.traction_load(test)
@@ -141,16 +144,21 @@ class ExplicitStepper(TimeLevels):
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
         self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
-        self._massless = MasslessNodes(problem, self.u, forces, self._stiffness, fixed)
+        affine = self._affine()
+        self._massless = MasslessNodes(problem, self.u, forces, affine, fixed)
         massless = np.setdiff1d(problem.massless_dofs(), fixed)
         self._massless_dofs = massless if self._massless.active else massless[:0]
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
         #: in contact (:func:`largest_eigenvalue`).
-        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, self._stiffness, self._mass))
+        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, affine, self._mass))
+        if affine is not self._stiffness:
+            affine.destroy()
         self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
         tractions = problem.has_tractions
         self._tractions = fem.form(-problem.traction_load(self.u)) if tractions else None
-        self.diagnostics = Diagnostics(problem, self.u, self.v, potential=self._potential)
+        self.diagnostics = Diagnostics(
+            problem, self.u, self.v, potential=self._potential, elastic=self._elastic
+        )
         self._contact_fields = None
         self.friction_dissipation = 0.0
         self._energy_before = None
@@ -190,12 +198,31 @@ class ExplicitStepper(TimeLevels):
         if self._force is not None:
             fem_petsc.assemble_vector(vector, self._force)
             vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self._stiffness.mult(compat.petsc_vector(self.u), self._product)
+        u = compat.petsc_vector(self.u)
+        self._stiffness.mult(u, self._product)
         vector.axpy(-1.0, self._product)
+        if self._boundary is not None:
+            self._boundary.mult(u, self._work)
+            vector.axpy(-1.0, self._work)
         if self._unit_loads is not None:
             vector.array += self.problem.body_force() @ self._unit_loads
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         return vector, self._product
+
+    def _affine(self) -> PETSc.Mat:
+        """The matrix of all the affine terms, the bulk's and the boundary's (the set-up's:
+        the steps take their products apart)."""
+        if self._boundary is None:
+            return self._stiffness
+        total = self._stiffness.duplicate(copy=True)
+        total.axpy(1.0, self._boundary, structure=PETSc.Mat.Structure.SUBSET)  # cells' pattern
+        return total
+
+    def _elastic(self) -> float:
+        """1/2 u . K u from the bulk's product of the last force evaluation (at this u)."""
+        n = self._product.getLocalSize()
+        local = self.u.x.array[:n] @ self._product.array_r
+        return float(sum_over_ranks(self.comm, [local])[0]) / 2
 
     def _lumped_unit_loads(self) -> np.ndarray:
         """M e_k / rho for each component k (owned rows): the body force f, constant in
