@@ -59,6 +59,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import cases
 from nitsche_dolfinx.arguments import (
+    add_mass_argument,
     add_method_arguments,
     add_run_arguments,
     add_terminal_arguments,
@@ -69,7 +70,7 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
 from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.parameters import CONTACT_METHODS, MASS_MATRICES, require
+from nitsche_dolfinx.parameters import CONTACT_METHODS, require
 from nitsche_dolfinx.plotting import bar_figure, figure_title
 from nitsche_dolfinx.reports import bar_summary, written_to
 
@@ -94,7 +95,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--method", choices=CONTACT_METHODS, default="nitsche",
         help="contact method (mixed: Lagrange multiplier, with --scheme cn)",
     )  # fmt: skip
-    parser.add_argument("--mass", choices=MASS_MATRICES, default="consistent", help="mass matrix")
+    add_mass_argument(parser)
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")

@@ -44,6 +44,7 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     scheme_from_arguments,
+    scheme_mass,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS
@@ -98,6 +99,7 @@ def run_pair(args, dim: int, snapshot: Snapshot):
         dim=dim, mesh_size=args.mesh_size, v0=args.v0, gap=args.gap, degree=args.degree,
         gamma0=args.gamma0, nitsche_theta=args.nitsche_theta, variant=args.variant,
         along_axis=args.pairing == "axis", gamma0_scaling=args.gamma0_scaling,
+        mass=scheme_mass(args),
     )  # fmt: skip
     momentum = [f"momentum_{c}" for c in "xyz"[:dim]]
     columns = (*HISTORY_COLUMNS[:11], *momentum)
@@ -111,7 +113,7 @@ def run_on_plane(args, dim: int):
     mesh, tags = (ball_mesh if dim == 3 else disk_mesh)(args.mesh_size, 2, 20.0, center)
     problem = ContactProblem(
         mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), args.degree, args.gamma0 / 2,
-        args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+        args.nitsche_theta, gamma0_scaling=args.gamma0_scaling, mass=scheme_mass(args),
     )  # fmt: skip
     up = [0.0] * dim
     up[-1] = 1.0

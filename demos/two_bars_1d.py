@@ -45,6 +45,7 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     scheme_from_arguments,
+    scheme_mass,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import two_bars_errors
@@ -108,7 +109,7 @@ def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -
     problem, cells = two_bars_problem(
         nx=nx, v0=args.v0, gap=args.gap, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, variant=args.variant,
-        gamma0_scaling=args.gamma0_scaling,
+        gamma0_scaling=args.gamma0_scaling, mass=scheme_mass(args),
     )  # fmt: skip
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=dt, t_end=args.t_end, progress=not quiet,

@@ -112,23 +112,42 @@ METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--allow
                 "--t-end", "--max-step-cuts")  # fmt: skip
 
 
-class _GivenStep(argparse._StoreAction):
-    """``--dt``: stored, and remembered as given (an explicit ``--scheme`` keeps it)."""
+class _Given(argparse._StoreAction):
+    """A flag stored and remembered as given (an explicit ``--scheme`` keeps it)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
-        namespace._dt_given = True
+        namespace._given = getattr(namespace, "_given", set()) | {self.dest}
         super().__call__(parser, namespace, values, option_string)
+
+
+#: What an explicit scheme changes among the defaults of a demo's flags (SPEC section 9):
+#: the step is its estimated stable step, the mass the lumped one.
+EXPLICIT_DEFAULTS = {"dt": "auto", "mass": "lumped"}
 
 
 class _Scheme(argparse._StoreAction):
     """``--scheme``: stored; an explicit scheme (verlet) makes ``--dt`` default to
-    ``auto``, its estimated stable step (``../shared/SPEC.md`` section 9), unless ``--dt``
-    is given, before or after it."""
+    ``auto``, its estimated stable step (``../shared/SPEC.md`` section 9), and ``--mass``
+    (where the demo has it) to ``lumped``, unless they are given, before or after it."""
 
     def __call__(self, parser, namespace, values, option_string=None):
         super().__call__(parser, namespace, values, option_string)
-        if SCHEMES[values].explicit and not getattr(namespace, "_dt_given", False):
-            namespace.dt = "auto"
+        if SCHEMES[values].explicit:
+            given = getattr(namespace, "_given", set())
+            for name, value in EXPLICIT_DEFAULTS.items():
+                if hasattr(namespace, name) and name not in given:
+                    setattr(namespace, name, value)
+
+
+def add_mass_argument(parser: argparse.ArgumentParser, default: str = "consistent") -> None:
+    """Add ``--mass`` (the verlet scheme makes its default ``lumped``)."""
+    add_parameter_argument(parser, "--mass", default, action=_Given)
+
+
+def scheme_mass(args: argparse.Namespace) -> str:
+    """The mass of a demo without ``--mass``: lumped for an explicit scheme, else
+    consistent."""
+    return "lumped" if SCHEMES[args.scheme].explicit else "consistent"
 
 
 def add_method_arguments(
@@ -145,7 +164,7 @@ def add_method_arguments(
     (the others: the TOML defaults)."""
     given = {"--gamma0": gamma0, "--degree": degree, "--dt": dt, "--t-end": t_end,
              "--beta": beta, "--gamma": gamma}  # fmt: skip
-    actions = {"--max-step-cuts": {"metavar": "N"}, "--dt": {"action": _GivenStep},
+    actions = {"--max-step-cuts": {"metavar": "N"}, "--dt": {"action": _Given},
                "--scheme": {"action": _Scheme}}  # fmt: skip
     for flag in METHOD_FLAGS:
         add_parameter_argument(parser, flag, given.get(flag, TOML_DEFAULT), **actions.get(flag, {}))

@@ -31,6 +31,21 @@ from .facet_jacobian import ContactFacets
 __all__ = ["PairCoupling"]
 
 
+def add_partner_terms(pairs, forms, b: PETSc.Vec, work, owned_bc, scale: float = 1.0) -> None:
+    """b += scale * the sum over ``pairs`` of T^T G, G the compiled partner-tested form of
+    the pair (``forms``), zero at the owned Dirichlet dofs ``owned_bc``; ``work``: two
+    vectors of b's layout."""
+    g, Tg = work
+    for pair, G in zip(pairs, forms):
+        with g.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(g, G)
+        g.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        pair.pairing.T.multTranspose(g, Tg)
+        Tg.array[owned_bc] = 0.0
+        b.axpy(scale, Tg)
+
+
 class PairCoupling:
     """What a step's SNES needs beyond its UFL forms for contact pairs: the partners of
     the iterate, the residual T^T G and the Jacobian's coupling terms.
@@ -107,14 +122,7 @@ class PairCoupling:
 
     def add_residual(self, b: PETSc.Vec) -> None:
         """b += sum of T^T G over the pairs (zero at the Dirichlet dofs)."""
-        for pair, G in zip(self.pairs, self._G):
-            with self._g.localForm() as local:
-                local.set(0.0)
-            fem_petsc.assemble_vector(self._g, G)
-            self._g.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            pair.pairing.T.multTranspose(self._g, self._Tg)
-            self._Tg.array[self._owned_bc] = 0.0
-            b.axpy(1.0, self._Tg)
+        add_partner_terms(self.pairs, self._G, b, (self._g, self._Tg), self._owned_bc)
 
     def _assemble(self, active_cells: np.ndarray | None = None) -> None:
         """Assemble the derivative matrices of every pair: first each rank's share of all

@@ -200,10 +200,12 @@ def two_bars_problem(
     variant: str = "unbiased",
     comm=MPI.COMM_WORLD,
     gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
 ):
     """Two bars of length 1, E = rho = 1, the right one moving at -v0 and the left one at
     +v0 (docs/method.md section 11): they touch at t = gap / (2 v0), stay in contact for
-    2 L / c = 2, and separate with their velocities exchanged.
+    2 L / c = 2, and separate with their velocities exchanged. ``mass``: that of
+    :class:`~nitsche_dolfinx.model.ContactProblem` (the verlet scheme takes "lumped").
 
     Returns:
         ``(problem, cell_tags)``: the cells of the right bar are tagged
@@ -212,7 +214,7 @@ def two_bars_problem(
     mesh, cell_tags, tags = two_bars_mesh(nx, gap, comm)
     problem = ContactProblem(
         mesh, tags, Material(E=1.0, nu=0.0, rho=1.0), degree, gamma0, nitsche_theta,
-        gamma0_scaling=gamma0_scaling,
+        gamma0_scaling=gamma0_scaling, mass=mass,
     )  # fmt: skip
     problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant)
     velocity = body_velocities(problem, cell_tags, {UPPER_BODY: [-v0], LOWER_BODY: [v0]})
@@ -233,12 +235,14 @@ def two_bodies_problem(
     along_axis: bool = True,
     comm=MPI.COMM_WORLD,
     gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
     each other along the last axis at speeds v0, without gravity. ``along_axis``: the
     surfaces are paired along that axis (then the pair is exactly one body on a rigid
     plane with gamma0 / 2, docs/method.md section 11); else with closest points.
+    ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`.
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
@@ -246,7 +250,7 @@ def two_bodies_problem(
     mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm)
     problem = ContactProblem(
         mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta,
-        gamma0_scaling=gamma0_scaling,
+        gamma0_scaling=gamma0_scaling, mass=mass,
     )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0

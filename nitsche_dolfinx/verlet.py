@@ -35,11 +35,13 @@ from .dirichlet import DirichletDofs
 from .explicit_mass import ConsistentMass, DiagonalMass, MasslessNodes
 from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
+from .pair_coupling import add_partner_terms
 from .parameters import ParameterError, TimeStepping
 from .schemes import VerletScheme
 from .solver import SolverError
 from .stepping import (
     check_initial_gap,
+    check_pairs_apart,
     checkpoint_description,
     interpolate_initial,
     massless_velocity,
@@ -85,8 +87,9 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
          "(mass_solver='cg'), or take mass='lumped'"),
         (problem.method != "nitsche", "method", problem.method,
          "the verlet scheme takes Nitsche's method"),
-        (bool(problem.pairs), "scheme", scheme.describe(),
-         "contact between bodies is not stepped explicitly yet: an implicit scheme"),
+        (bool(problem.pairs) and problem.mass == "redistributed", "mass", problem.mass,
+         "the verlet scheme takes contact between bodies with the lumped or consistent "
+         "mass"),
         (problem.frictional, "friction",
          float(np.asarray(problem.friction.value)) if problem.frictional else None,
          "the verlet scheme is frictionless"),
@@ -119,12 +122,18 @@ class ExplicitStepper(TimeLevels):
         affine = None  # A_Thgamma's boundary part, on Gamma_C: a matrix of its own, whose
         # product is cheap, so that the bulk's product K u gives the elastic energy
         forces = None  # the contact's force terms C(u)
+        self._pairs = problem.pairs  # contact between bodies: the partner-tested terms apart
+        problem.track_partners(self.u, self.v)
+        partner_forms = []
         for contact in problem.contacts:
             term = contact.affine_terms(trial, test)
             affine = term if affine is None else affine + term
             force = positive_part(contact.projection(self.u))
             term = contact.force_terms(self.u, self.v, force, test)
             forces = term if forces is None else forces + term
+            if contact in self._pairs:
+                partner_forms.append(fem.form(contact.partner_term(force, test)))
+        self._partner_forms = partner_forms
         self._stiffness = assembled_matrix(problem.bulk_stiffness(trial, test))
         self._boundary = None if affine is None else assembled_matrix(affine)
         boundary = -forces if forces is not None else None
@@ -135,7 +144,9 @@ class ExplicitStepper(TimeLevels):
         self._vector = compat.create_vector(V)
         self._product = compat.create_vector(V)
         self._work = self._product.duplicate()
+        self._partner_work = (self._product.duplicate(), self._product.duplicate())
         fixed = self._dirichlet.dofs  # prescribed: no acceleration of their own
+        self._fixed_owned = fixed[fixed < self._product.getLocalSize()]
         if problem.mass == "consistent":
             self._mass = ConsistentMass(V, problem.material.rho, fixed)
         else:
@@ -167,6 +178,7 @@ class ExplicitStepper(TimeLevels):
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
         self._dirichlet.set_values(self.u.x.array, 0.0)
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
+        check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
         self._accelerate(equilibrium=False)
         initial = self.diagnostics.energies()
@@ -195,9 +207,13 @@ class ExplicitStepper(TimeLevels):
         vector = self._vector
         with vector.localForm() as local:
             local.set(0.0)
+        for pair in self._pairs:
+            pair.update([self.u])
         if self._force is not None:
             fem_petsc.assemble_vector(vector, self._force)
             vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        add_partner_terms(self._pairs, self._partner_forms, vector, self._partner_work,
+                          self._fixed_owned, scale=-1.0)  # fmt: skip
         u = compat.petsc_vector(self.u)
         self._stiffness.mult(u, self._product)
         vector.axpy(-1.0, self._product)
@@ -376,10 +392,53 @@ def contact_stiffness_form(problem: ContactProblem):
     du, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
     form = None
     for contact in problem.contacts:
-        linear = contact.normal_displacement(du) - contact.gamma_h * contact.sigma_n(du)
-        term = contact.contact_term(linear, v)
+        if contact in problem.pairs:  # their partner: :class:`PairStiffness`
+            continue
+        term = contact.contact_term(_linear_projection(contact, du), v)
         form = term if form is None else form + term
     return form
+
+
+def _linear_projection(contact, du):
+    """The linear part of P_gamma(du): du_n - gamma_h sigma_n(du)."""
+    return contact.normal_displacement(du) - contact.gamma_h * contact.sigma_n(du)
+
+
+class PairStiffness:
+    """The product with the contact pairs' stiffness with every point of every slave
+    surface in contact, the pairs' part of :func:`contact_stiffness_form`, by assembly
+    (the partner of x is T x, a function: not a trial function)."""
+
+    def __init__(self, problem: ContactProblem):
+        V = problem.V
+        self.pairs = problem.pairs
+        self.x = fem.Function(V)
+        problem.track_partners(self.x)
+        v = ufl.TestFunction(V)
+        slave = sum(pair.contact_term(_linear_projection(pair, self.x), v) for pair in self.pairs)
+        self._slave = fem.form(slave)
+        self._partner = [fem.form(pair.partner_term(_linear_projection(pair, self.x), v))
+                         for pair in self.pairs]  # fmt: skip
+        self._vector = compat.create_vector(V)
+        self._work = (self._vector.duplicate(), self._vector.duplicate())
+
+    def mult_add(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y += K_pairs x."""
+        self.x.x.array[: x.getLocalSize()] = x.array_r
+        self.x.x.scatter_forward()
+        for pair in self.pairs:
+            pair.update([self.x])
+        vector = self._vector
+        with vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(vector, self._slave)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        add_partner_terms(self.pairs, self._partner, vector, self._work, np.zeros(0, np.int32))
+        y.axpy(1.0, vector)
+
+    def destroy(self) -> None:
+        for obj in (self._vector, *self._work):
+            obj.destroy()
 
 
 def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass, iterations=200,
@@ -394,6 +453,7 @@ def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass, iterati
     then on the safe side."""
     form = contact_stiffness_form(problem)
     contact = None if form is None else assembled_matrix(form)
+    pairs = PairStiffness(problem) if problem.pairs else None
     x, y, z = (affine.createVecRight() for _ in range(3))
     n = x.getLocalSize()
     start = fem.Function(problem.V)  # the same start on every partition: a function of x
@@ -408,12 +468,15 @@ def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass, iterati
         affine.mult(x, y)
         if contact is not None:
             contact.multAdd(x, y, y)
+        if pairs is not None:
+            pairs.mult_add(x, y)
         mass.mult(x, z)
         previous, estimate = estimate, x.dot(y) / x.dot(z)
         mass.solve(y, x)
         x.scale(1.0 / x.norm())
         if abs(estimate - previous) <= rtol * abs(estimate):
             break
-    for obj in (x, y, z) if contact is None else (x, y, z, contact):
-        obj.destroy()
+    for obj in (x, y, z, contact, pairs):
+        if obj is not None:
+            obj.destroy()
     return float(estimate)
