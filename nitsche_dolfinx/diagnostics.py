@@ -15,6 +15,7 @@ import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
+from ufl.algorithms.map_integrands import map_integrands
 
 from . import compat
 from .collective import max_over_ranks, sum_over_ranks
@@ -125,9 +126,9 @@ def assembled_matrix(form) -> PETSc.Mat:
     return matrix
 
 
-def _total(forms: list, zero):
-    """The sum of a list of forms, or ``zero`` for an empty list."""
-    return sum(forms[1:], forms[0]) if forms else zero
+def _total(forms: list):
+    """The sum of a list of forms, or None for an empty list."""
+    return sum(forms[1:], forms[0]) if forms else None
 
 
 def _update_partners(model, u: fem.Function) -> None:
@@ -135,6 +136,49 @@ def _update_partners(model, u: fem.Function) -> None:
     read no other."""
     for pair in model.pairs:
         pair.update([u])
+
+
+class ScalarForms:
+    """Several scalar forms assembled in one pass over the mesh: each integrand times one
+    component of the test function of a vector DG0 space, the sums of the vector by
+    component over every rank. The forms' common quantities (the contact projection, the
+    stresses on Gamma_C) are evaluated once per quadrature point instead of once per form.
+
+    Args:
+        mesh: The mesh.
+        forms: The UFL scalar forms, by name (None: zero, not assembled).
+    """
+
+    def __init__(self, mesh, forms: dict):
+        self.comm = mesh.comm
+        self.names = list(forms)
+        self._assembled = [name for name in self.names if forms[name] is not None]
+        self._form = self._vector = None
+        if not self._assembled:
+            return
+        space = compat.function_space(mesh, "DG", 0, (len(self._assembled),))
+        w = ufl.TestFunction(space)
+        total = None
+        for k, name in enumerate(self._assembled):
+            term = map_integrands(lambda integrand, k=k: integrand * w[k], forms[name])
+            total = term if total is None else total + term
+        self._form = fem.form(total)
+        self._vector = compat.create_vector(space)
+
+    def values(self) -> dict[str, float]:
+        """Each form's value, identical on every rank."""
+        values = dict.fromkeys(self.names, 0.0)
+        if self._form is None:
+            return values
+        with self._vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(self._vector, self._form)
+        with self._vector.localForm() as local:
+            # every integral is computed on one rank, at its cell's entry (owned or ghost):
+            # the local entries, ghosts included, sum to this rank's share
+            sums = local.array.reshape(-1, len(self._assembled)).sum(axis=0)
+        values.update(zip(self._assembled, sum_over_ranks(self.comm, sums).tolist()))
+        return values
 
 
 class Penetration:
@@ -268,22 +312,22 @@ class Diagnostics:
         if elastic is None:
             self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
             self._work = self._stiffness.createVecLeft()
-        zero = fem.Constant(model.mesh, 0.0) * model.dx
         # without loads the potential is zero: no form to assemble each step
         loaded = model.has_loads and potential is None
         self._potential = potential if model.has_loads else None
         forms = {
             "potential": -model.load(u) if loaded else None,
-            "energy_correction": _total([c.energy_correction(u) for c in model.contacts], zero),
-            "contact_force": _total([c.force(u) for c in model.contacts], zero),
-            "contact_area": _total([c.area(u) for c in model.contacts], zero),
+            "energy_correction": _total([c.energy_correction(u) for c in model.contacts]),
+            "contact_force": _total([c.force(u) for c in model.contacts]),
+            "contact_area": _total([c.area(u) for c in model.contacts]),
         }
-        self._forms = {name: fem.form(f) for name, f in forms.items() if f is not None}
-        self._each_forms = {}
+        self._forms = ScalarForms(model.mesh, forms)
+        each = {}
         if len(model.contacts) > 1:  # one contact: its totals are the sums
             for k, contact in enumerate(model.contacts, start=1):
-                self._each_forms[f"contact_force_{k}"] = fem.form(contact.force(u))
-                self._each_forms[f"contact_area_{k}"] = fem.form(contact.area(u))
+                each[f"contact_force_{k}"] = contact.force(u)
+                each[f"contact_area_{k}"] = contact.area(u)
+        self._each_forms = ScalarForms(model.mesh, each) if each else None
         self.penetration = Penetration(model, u)
         self._level: tuple[int, dict[str, float]] | None = None  # (its index, its values)
 
@@ -316,10 +360,9 @@ class Diagnostics:
         """The energies and the contact totals at the current state, identical on every
         rank."""
         _update_partners(self.model, self.u)
-        names = list(self._forms)
-        local = [fem.assemble_scalar(form) for form in self._forms.values()]
-        values = dict(zip(names, sum_over_ranks(self.comm, local).tolist()))
-        values.setdefault("potential", 0.0 if self._potential is None else self._potential())
+        values = self._forms.values()
+        if self._potential is not None:
+            values["potential"] = self._potential()
         kinetic = self.moments.kinetic(self.v)
         elastic = self._elastic() if self._elastic else self._quadratic(self._stiffness, self.u)
         energy = kinetic + elastic + values["potential"]
@@ -348,9 +391,8 @@ class Diagnostics:
         if len(self.model.contacts) == 1:  # its totals are the sums
             values["contact_force_1"] = values["contact_force"]
             values["contact_area_1"] = values["contact_area"]
-        elif self._each_forms:
-            local = [fem.assemble_scalar(form) for form in self._each_forms.values()]
-            values.update(zip(self._each_forms, sum_over_ranks(self.comm, local).tolist()))
+        elif self._each_forms is not None:
+            values.update(self._each_forms.values())
         return values
 
 
