@@ -62,6 +62,7 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     petsc_option,
+    step_taken,
 )
 from nitsche_dolfinx.cases import IMPACT_SCHEMES, impact_problem
 from nitsche_dolfinx.checkpoint import has_checkpoint
@@ -117,9 +118,10 @@ def make_parser(description: str, default_out: str) -> argparse.ArgumentParser:
 # continues from its own checkpoint if it has one.
 
 
-def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=None, dt=None):
-    """One impact run (``dt``: instead of ``--dt``); returns its History and what the summary
-    says of it. The explicit verlet scheme takes the lumped mass."""
+def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=None):
+    """One impact run; returns its History and what the summary says of it. The explicit
+    verlet scheme takes the lumped mass; the main run's step (``--dt auto``: the verlet
+    scheme's) becomes ``--dt``, the compared runs'."""
     parameters = {"theta": args.theta, "beta": args.beta, "gamma": args.gamma,
                   "safety": args.safety, "allow_unstable_dt": args.allow_unstable_dt}  # fmt: skip
     if compared:
@@ -132,11 +134,12 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
         mass="lumped" if time_scheme.explicit else "consistent",
     )  # fmt: skip
     simulation = Simulation(
-        problem, time_scheme, dt=args.dt if dt is None else dt,
-        t_end=args.t_end,
+        problem, time_scheme, dt=args.dt, t_end=args.t_end,
         petsc_options=dict(args.petsc), linear_solver=args.linear_solver,
         progress=not (args.quiet or compared), max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
+    if not compared:
+        args.dt = step_taken(simulation, args.quiet)
     restart = args.restart and (not compared or has_checkpoint(os.path.join(out, "checkpoint")))
     MPI.COMM_WORLD.barrier()
     start = time.perf_counter()
@@ -149,7 +152,7 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
     if simulation.solver is not None:  # collectively, not whenever the garbage collector runs
         simulation.solver.destroy()
     label = f"Nitsche + {simulation.scheme.describe()}"
-    return history, label, seconds, (simulation.dofs, simulation.solver_description, simulation.dt)
+    return history, label, seconds, (simulation.dofs, simulation.solver_description)
 
 
 # ### Main
@@ -176,16 +179,13 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
         check_body_mesh(args.mesh_size, order=2, radius=20.0, dim=dim)  # not too many cells
         check_output_folder(args.out)
         runs = [run(args, dim, args.scheme, args.out, callback=snapshot)]
-        dt = runs[0][3][2]  # the main run's step (dt = auto: its stable step's share)
-        runs += [
-            run(args, dim, s, out, compared=True, dt=dt) for s, out in zip(schemes[1:], outs[1:])
-        ]
+        runs += [run(args, dim, s, out, compared=True) for s, out in zip(schemes[1:], outs[1:])]
     if MPI.COMM_WORLD.rank != 0:
         return
-    history, _, _, (dofs, linear_solver, dt) = runs[0]
+    history, _, _, (dofs, linear_solver) = runs[0]
     print(
         f"{dofs} DOFs (P{args.degree}, h = {args.mesh_size:g}), {steps_text(history)} of "
-        f"tau = {dt:g} to T = {args.t_end:g}, Theta = {args.nitsche_theta:g}, "
+        f"tau = {args.dt:g} to T = {args.t_end:g}, Theta = {args.nitsche_theta:g}, "
         f"gamma0 = {args.gamma0:g}, linear solver {linear_solver}"
     )
     runs_table([run[:3] for run in runs])
@@ -194,7 +194,7 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
     print(written_to(args.out, args.output_every, outs))
     if not args.no_plot:
         title = figure_title(
-            body, args.nitsche_theta, args.gamma0, args.degree, f"{args.mesh_size:g}", dt
+            body, args.nitsche_theta, args.gamma0, args.degree, f"{args.mesh_size:g}", args.dt
         )
         labels = [label for _, label, _, _ in runs]
         colours = [SCHEME_COLOURS[name] for name in schemes]

@@ -37,6 +37,8 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     scheme_from_arguments,
+    scheme_mass,
+    step_taken,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS
@@ -77,11 +79,13 @@ def main(argv: list[str] | None = None) -> None:
         problem, _ = ball_on_slab_problem(
             dim=args.dim, mesh_size=args.mesh_size, v0=args.v0, gamma0=args.gamma0,
             nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+            mass=scheme_mass(args),
         )  # fmt: skip
         simulation = Simulation(
             problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
             progress=not args.quiet, max_step_cuts=args.max_step_cuts,
         )  # fmt: skip
+        args.dt = step_taken(simulation, args.quiet)  # --dt auto: the verlet scheme's step
         momentum = [f"momentum_{c}" for c in "xyz"[: args.dim]]
         snapshot = Snapshot(at=PICTURE_TIME)  # the fields gathered on rank 0 for the picture
         start = time.perf_counter()

@@ -66,6 +66,7 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     method_parameters,
     scheme_from_arguments,
+    step_taken,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.checkpoint import has_checkpoint
@@ -96,7 +97,7 @@ def make_parser() -> argparse.ArgumentParser:
         help="contact method (mixed: Lagrange multiplier, with --scheme cn)",
     )  # fmt: skip
     add_mass_argument(parser)
-    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0, explicit_gamma0=0.5)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument("--out", default=os.path.join("out", "bar_1d"), help="output folder")
     add_run_arguments(parser)
@@ -131,6 +132,8 @@ def run(args: argparse.Namespace, scheme: str, out: str, method: str, main: bool
         max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     sim.progress = main and not args.quiet
+    if main:  # its step (--dt auto: the verlet scheme's) is the comparison's, the summary's
+        args.dt = step_taken(sim, args.quiet)
     restart = args.restart and (out == args.out or has_checkpoint(os.path.join(out, "checkpoint")))
     history = sim.run(
         out=out, columns=BAR_COLUMNS, output_every=args.output_every if main else 0,
@@ -144,7 +147,9 @@ def run(args: argparse.Namespace, scheme: str, out: str, method: str, main: bool
 # ### Main
 #
 # The main run uses the chosen scheme; unless it is Crank-Nicolson, Nitsche +
-# Crank-Nicolson runs with the same parameters into `OUT/cn`. A bad flag stops the
+# Crank-Nicolson runs with the same parameters and the main run's step into `OUT/cn`
+# (with `--scheme verlet`, `--dt` is by default `auto`: the estimated stable step's
+# share, printed at the start with the number of steps). A bad flag stops the
 # demo with one line naming it before anything is computed (exit status 2); a
 # Newton failure or SIGINT/SIGTERM stops it after the last complete step, saved in
 # `OUT/checkpoint` (also every `--checkpoint-every K` steps); `--restart` goes on.

@@ -47,6 +47,8 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     method_parameters,
     scheme_from_arguments,
+    scheme_mass,
+    step_taken,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import bar_contact_errors
@@ -66,7 +68,7 @@ parser = argparse.ArgumentParser(
     description="1D bouncing bar, the time loop written out.",
     formatter_class=argparse.ArgumentDefaultsHelpFormatter,
 )
-add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
+add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0, explicit_gamma0=0.5)
 parser.add_argument("--nx", type=int, default=100, help="number of cells")
 parser.add_argument("--out", default=os.path.join("out", "bar_loop_1d"), help="output folder")
 add_terminal_arguments(parser)  # --output-every N (the fields every N steps), --quiet
@@ -81,7 +83,9 @@ comm = MPI.COMM_WORLD
 # `add_obstacle(PlaneObstacle([0.0], [1.0]), BAR_CONTACT)` at $x = 0$ and
 # `set_initial_conditions(displacement=lambda x: 0.5 - x[0] / 2)`. The
 # `Simulation` holds the time levels; `cases.add_bar_probes` adds to its state the
-# displacement, the velocity and the contact pressure $\lambda_h$ at $x = 0$.
+# displacement, the velocity and the contact pressure $\lambda_h$ at $x = 0$. With
+# `--scheme verlet` (explicit, lumped mass), `--dt auto` is the scheme's share of the
+# stable step it estimates: `simulation.dt`, printed with the number of steps.
 
 with one_line_errors(parser):
     method_parameters(args)
@@ -90,12 +94,14 @@ with one_line_errors(parser):
     problem = cases.bar_problem(
         nx=args.nx, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+        mass=scheme_mass(args),
     )  # fmt: skip
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
         max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     cases.add_bar_probes(simulation)
+    args.dt = step_taken(simulation, args.quiet)  # --dt auto: the verlet scheme's step
 
 # ## The time loop
 #

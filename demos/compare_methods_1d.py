@@ -44,7 +44,9 @@
 # oscillating. The mixed method with the consistent mass is the ill-posed
 # semi-discrete problem of the talk's introduction. `--scheme` (and `--theta`,
 # `--beta`, `--gamma`) changes the scheme of the hybrid runs, which are then
-# named after it (`nitsche_theta`, ...). The defaults are the talk's: Nitsche
+# named after it (`nitsche_theta`, ...); `--scheme verlet` takes the lumped mass,
+# runs first, and its step (by default `--dt auto`, its share of the stable step it
+# estimates) is every run's. The defaults are the talk's: Nitsche
 # $\Theta = 1$, $\gamma_0 = 10^{-6}$, 100 P1 cells, $\tau = 0.015$, $T = 6$. The
 # table the demo prints, and what it shows, are in `docs/results.md`.
 
@@ -52,6 +54,7 @@
 import argparse
 import os
 import time
+from dataclasses import replace
 
 from mpi4py import MPI
 
@@ -62,12 +65,12 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     method_parameters,
     scheme_from_arguments,
+    step_taken,
 )
 from nitsche_dolfinx.cases import BAR_COLUMNS, BAR_METHODS
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.plotting import comparison_figure, figure_title
 from nitsche_dolfinx.reports import COMPARISON_COLUMNS, comparison_row, comparison_table, write_csv
-from nitsche_dolfinx.schemes import make_scheme
 
 COMPARED = ("mixed", "cn", "hybrid", "modified_mass")  # keys of BAR_METHODS, in this order
 # -
@@ -81,7 +84,7 @@ def make_parser() -> argparse.ArgumentParser:
         description="1D bouncing bar: mixed, Nitsche, hybrid and modified mass methods compared.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0, explicit_gamma0=0.5)
     parser.add_argument("--nx", type=int, default=100, help="number of cells")
     parser.add_argument(
         "--penalty", action="store_true", help="also run the penalty method with the hybrid scheme"
@@ -106,12 +109,13 @@ def make_parser() -> argparse.ArgumentParser:
 def run(method: cases.BarMethod, out: str, args: argparse.Namespace) -> tuple:
     """Run ``method``, writing ``out/history.csv``; its History and wall time."""
     start = time.perf_counter()
-    scheme = make_scheme(method.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma)
     simulation = cases.bar_simulation(
-        scheme, method=method.method, mass=method.mass, dt=args.dt, t_end=args.t_end,
-        nx=args.nx, degree=args.degree, gamma0=args.gamma0, nitsche_theta=args.nitsche_theta,
-        gamma0_scaling=args.gamma0_scaling, max_step_cuts=args.max_step_cuts,
+        scheme_from_arguments(args, method.scheme), method=method.method, mass=method.mass,
+        dt=args.dt, t_end=args.t_end, nx=args.nx, degree=args.degree, gamma0=args.gamma0,
+        nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+        max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
+    args.dt = step_taken(simulation, args.quiet)  # the first run's (--dt auto) is the others'
     history = simulation.run(out=out, columns=BAR_COLUMNS, output_every=args.output_every)
     seconds = time.perf_counter() - start
     if not args.quiet and MPI.COMM_WORLD.rank == 0:  # one line per run: its progress
@@ -130,24 +134,31 @@ def main(argv: list[str] | None = None) -> None:
     """Run the demo with the command-line arguments ``argv``."""
     parser = make_parser()
     args = parser.parse_args(argv)
-    studied = scheme_from_arguments(args)  # the scheme of the hybrid runs
+    with one_line_errors(parser):
+        studied = scheme_from_arguments(args)  # the scheme of the hybrid runs
     keys = [*COMPARED, "penalty"] if args.penalty else list(COMPARED)
     methods = {}  # the hybrid runs with the scheme of --scheme, each run once
     for key in keys:
         method = BAR_METHODS[key]
-        method = method.with_scheme(studied) if method.scheme == "hybrid" else method
+        if method.scheme == "hybrid":
+            method = method.with_scheme(studied)
+            if studied.explicit:  # verlet: with the lumped mass
+                method = replace(method, label=f"{method.label}, lumped mass", mass="lumped")
         if method.name not in (m.name for m in methods.values()):
             methods[key] = method
     names = {key: method.name for key, method in methods.items()}
+    # the runs of the studied scheme first: with --dt auto, the step of the verlet run is
+    # the step of every run
+    order = sorted(methods, key=lambda key: methods[key].scheme != studied.name)
     with one_line_errors(parser):
         method_parameters(args)
         check_output_folder(args.out)
-        runs = [run(m, os.path.join(args.out, names[key]), args) for key, m in methods.items()]
+        runs = {key: run(methods[key], os.path.join(args.out, names[key]), args) for key in order}
     if MPI.COMM_WORLD.rank != 0:
         return
     rows = [
-        {"run": names[key], "label": method.label, **comparison_row(history, seconds, args.dt)}
-        for (key, method), (history, seconds) in zip(methods.items(), runs)
+        {"run": names[key], "label": method.label, **comparison_row(*runs[key], args.dt)}
+        for key, method in methods.items()
     ]
     write_csv(os.path.join(args.out, "summary.csv"), ["run", "label", *COMPARISON_COLUMNS], rows)
     table = comparison_table(rows)
@@ -162,7 +173,7 @@ def main(argv: list[str] | None = None) -> None:
             "1D bouncing bar", args.nitsche_theta, args.gamma0, args.degree, 1 / args.nx, args.dt
         )
         path = os.path.join(args.out, "compare_methods_1d.png")
-        comparison_figure(methods, [history for history, _ in runs], title, path, args.t_end)
+        comparison_figure(methods, [runs[key][0] for key in methods], title, path, args.t_end)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,9 @@
 # $\gamma_0 = 10^{-6}$. The methods (`--methods`, from `cases.BAR_METHODS`):
 # `hybrid` (Nitsche, the hybrid scheme, or that of `--scheme`), `cn` (Nitsche +
 # Crank-Nicolson), `mixed` (Lagrange multiplier + CN) and `modified_mass` (the
-# same with the redistributed mass).
+# same with the redistributed mass). With `--scheme verlet` (explicit, lumped
+# mass), $\tau$ is by default on each level the scheme's share of the stable step
+# it estimates there (`--dt auto`), and every method of the level takes it.
 #
 # The errors, with $t^n = n \tau$, $u$ the exact solution and $e^n = u_h^n - u(t^n)$:
 #
@@ -55,6 +57,7 @@
 # +
 import argparse
 import os
+from dataclasses import replace
 
 from mpi4py import MPI
 
@@ -64,8 +67,9 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     scheme_from_arguments,
+    step_taken,
 )
-from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level
+from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level, bar_simulation
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.plotting import convergence_figure, figure_title
@@ -88,7 +92,7 @@ def make_parser() -> argparse.ArgumentParser:
         description="1D bouncing bar: convergence when h and tau go to 0 with tau/h fixed.",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=None, t_end=3.0)
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=None, t_end=3.0, explicit_gamma0=0.5)
     parser.add_argument(
         "--levels", type=int, nargs="+", default=[25, 50, 100, 200, 400],
         help="numbers of cells N of the levels (h = 1/N)",
@@ -104,9 +108,28 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def time_step(args: argparse.Namespace, nx: int) -> float:
-    """tau of the level with ``nx`` cells: ``--dt``, or ``--ratio`` times h."""
+def time_step(args: argparse.Namespace, nx: int) -> float | str:
+    """tau of the level with ``nx`` cells: ``--dt`` (``auto``: see :func:`level_steps`), or
+    ``--ratio`` times h."""
     return args.dt if args.dt is not None else args.ratio * (1.0 / nx)
+
+
+def level_steps(args: argparse.Namespace, studied) -> dict[int, float]:
+    """tau of every level. With ``--dt auto`` (the default of ``--scheme verlet``), the
+    step the verlet scheme takes on that level (its share of the stable step it estimates
+    on the level's mesh, about proportional to h): every method of the level takes it."""
+    steps = {}
+    for nx in sorted(args.levels):
+        dt = time_step(args, nx)
+        if dt == "auto":  # the level's explicit simulation, built for its step
+            simulation = bar_simulation(
+                studied, mass="lumped", dt=dt, t_end=args.t_end, nx=nx, degree=args.degree,
+                gamma0=args.gamma0, nitsche_theta=args.nitsche_theta,
+                gamma0_scaling=args.gamma0_scaling,
+            )  # fmt: skip
+            dt = step_taken(simulation, args.quiet)
+        steps[nx] = dt
+    return steps
 
 
 def check_arguments(parser, args: argparse.Namespace) -> None:
@@ -118,6 +141,14 @@ def check_arguments(parser, args: argparse.Namespace) -> None:
         method_parameters(argparse.Namespace(**{**vars(args), "dt": time_step(args, nx)}))
 
 
+def figure_step(args: argparse.Namespace) -> float | str:
+    """tau in the figure's title: ``--dt``, ``--ratio`` h, or the verlet scheme's share of
+    the stable step."""
+    if args.dt == "auto":
+        return rf"{args.safety:g}\,\tau_{{\rm stable}}(h)"
+    return rf"{args.ratio:g}\,h" if args.dt is None else args.dt
+
+
 # ### The study
 #
 # Each level is `cases.bar_convergence_level`: a run of `cases.bar_simulation`
@@ -126,8 +157,9 @@ def check_arguments(parser, args: argparse.Namespace) -> None:
 # every step and sums over the ranks. One line per level shows the progress.
 
 
-def study(args: argparse.Namespace, methods: dict) -> dict:
-    """The rows of every level of every method (``methods``: key to BarMethod)."""
+def study(args: argparse.Namespace, methods: dict, steps: dict[int, float]) -> dict:
+    """The rows of every level of every method (``methods``: key to BarMethod; ``steps``:
+    the number of cells of each level to its tau)."""
     results = {}
     for name, method in methods.items():
         results[name] = []
@@ -135,7 +167,7 @@ def study(args: argparse.Namespace, methods: dict) -> dict:
             # the fields only when asked for, each level in a folder of its own
             out = os.path.join(args.out, name, f"N{nx}") if args.output_every else None
             row = bar_convergence_level(
-                method, nx, time_step(args, nx), args.t_end, args.gamma0, args.degree, out,
+                method, nx, steps[nx], args.t_end, args.gamma0, args.degree, out,
                 args.output_every, scheme_from_arguments(args, method.scheme),
                 nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
                 max_step_cuts=args.max_step_cuts,
@@ -162,14 +194,17 @@ def main(argv: list[str] | None = None) -> None:
     """Run the demo with the command-line arguments ``argv``."""
     parser = make_parser()
     args = parser.parse_args(argv)
-    studied = scheme_from_arguments(args)  # the scheme of the hybrid method
-    methods = {
-        name: BAR_METHODS[name].with_scheme(studied) if name == "hybrid" else BAR_METHODS[name]
-        for name in args.methods
-    }
+    with one_line_errors(parser):
+        studied = scheme_from_arguments(args)  # the scheme of the hybrid method
+    methods = {name: BAR_METHODS[name] for name in args.methods}
+    if "hybrid" in methods:
+        methods["hybrid"] = methods["hybrid"].with_scheme(studied)
+        if studied.explicit:  # verlet: with the lumped mass
+            hybrid = methods["hybrid"]
+            methods["hybrid"] = replace(hybrid, label=f"{hybrid.label}, lumped mass", mass="lumped")
     with one_line_errors(parser):
         check_arguments(parser, args)
-        results = study(args, methods)
+        results = study(args, methods, level_steps(args, studied))
     if MPI.COMM_WORLD.rank != 0:
         return
     os.makedirs(args.out, exist_ok=True)
@@ -187,7 +222,7 @@ def main(argv: list[str] | None = None) -> None:
     if not args.no_plot:
         title = figure_title(
             rf"1D bouncing bar, convergence over $(0, {args.t_end:g})$", args.nitsche_theta,
-            args.gamma0, args.degree, dt=rf"{args.ratio:g}\,h" if args.dt is None else args.dt,
+            args.gamma0, args.degree, dt=figure_step(args),
         )  # fmt: skip
         convergence_figure(results, labels, title, os.path.join(args.out, "convergence_1d.png"))
 

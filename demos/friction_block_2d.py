@@ -64,6 +64,7 @@ from nitsche_dolfinx.arguments import (
     finite_float,
     method_parameters,
     scheme_from_arguments,
+    scheme_mass,
 )
 from nitsche_dolfinx.cases import add_block_probes, block_problem
 from nitsche_dolfinx.errors import one_line_errors
@@ -110,6 +111,7 @@ def run(args):
         gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta,
         gamma0_scaling=args.gamma0_scaling,
+        mass=scheme_mass(args),
     )
     simulation = Simulation(
         problem,

@@ -45,6 +45,7 @@ from nitsche_dolfinx.arguments import (
     method_parameters,
     scheme_from_arguments,
     scheme_mass,
+    step_taken,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS
@@ -92,6 +93,9 @@ def check_arguments(args, dim: int) -> None:
 
 
 # ## The pair and the body on a plane
+#
+# The body on the plane runs at the pair's step: with `--scheme verlet`, `--dt` is
+# by default `auto`, the scheme's share of the stable step it estimates for the pair.
 
 
 def run_pair(args, dim: int, snapshot: Snapshot):
@@ -127,6 +131,7 @@ def _run(args, problem, out, columns, quiet, callback=None):
         problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
         progress=not quiet, max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
+    args.dt = step_taken(simulation, quiet)  # the pair's (--dt auto) is the plane's
     start = time.perf_counter()
     history = simulation.run(
         out=out, columns=columns, output_every=args.output_every, callback=callback

@@ -46,6 +46,7 @@ from nitsche_dolfinx.arguments import (
     method_parameters,
     scheme_from_arguments,
     scheme_mass,
+    step_taken,
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import two_bars_errors
@@ -75,7 +76,7 @@ def make_parser() -> argparse.ArgumentParser:
         description="Two elastic bars colliding: Nitsche contact between two bodies (1D).",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=4.0)
+    add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=4.0, explicit_gamma0=0.5)
     parser.add_argument("--nx", type=int, default=100, help="cells per bar")
     parser.add_argument("--v0", type=finite_float, default=0.5, help="speed of each bar")
     parser.add_argument("--gap", type=finite_float, default=0.1, help="initial gap")
@@ -115,6 +116,8 @@ def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -
         problem, scheme_from_arguments(args), dt=dt, t_end=args.t_end, progress=not quiet,
         max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
+    if out == args.out:  # the main run: its step (--dt auto: the verlet scheme's) is --dt's
+        args.dt = step_taken(simulation, quiet)
     add_body_velocity_probes(simulation, cells, {LOWER_BODY: "v_left", UPPER_BODY: "v_right"})
     return simulation.run(
         out=out, columns=COLUMNS, output_every=args.output_every, callback=callback
@@ -127,7 +130,9 @@ def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -
 # the left bar moves at $-v_0$ and the right one at $+v_0$
 # (`exact.two_bars_errors`: the relative errors of the contact duration, the exit
 # velocities and the energy). `--refine N` runs $N$ refinements, $n_x$ doubled
-# and $\tau$ halved each time, into `OUT/refinement.csv`.
+# and $\tau$ halved each time, into `OUT/refinement.csv` (from the main run's
+# $\tau$: with `--scheme verlet`, by default its share of the stable step it
+# estimates, `--dt auto`).
 
 
 def refinement(args) -> list[dict]:

@@ -46,6 +46,7 @@ __all__ = [
     "method_parameters",
     "petsc_option",
     "scheme_from_arguments",
+    "step_taken",
     "version_text",
 ]
 
@@ -120,21 +121,28 @@ class _Given(argparse._StoreAction):
         super().__call__(parser, namespace, values, option_string)
 
 
-#: What an explicit scheme changes among the defaults of a demo's flags (SPEC section 9):
-#: the step is its estimated stable step, the mass the lumped one.
+#: What an explicit scheme changes among the defaults of a demo's flags (docs/method.md
+#: section 12): the step is its estimated stable step, the mass the lumped one.
 EXPLICIT_DEFAULTS = {"dt": "auto", "mass": "lumped"}
 
 
 class _Scheme(argparse._StoreAction):
     """``--scheme``: stored; an explicit scheme (verlet) makes ``--dt`` default to
-    ``auto``, its estimated stable step (``../shared/SPEC.md`` section 9), and ``--mass``
-    (where the demo has it) to ``lumped``, unless they are given, before or after it."""
+    ``auto``, its estimated stable step (docs/method.md section 12), ``--mass`` (where the
+    demo has it) to ``lumped`` and ``--gamma0`` to the demo's explicit default (where it
+    has one), unless they are given, before or after it."""
+
+    def __init__(self, *args, explicit_gamma0: float | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.explicit_defaults = dict(EXPLICIT_DEFAULTS)
+        if explicit_gamma0 is not None:
+            self.explicit_defaults["gamma0"] = explicit_gamma0
 
     def __call__(self, parser, namespace, values, option_string=None):
         super().__call__(parser, namespace, values, option_string)
         if SCHEMES[values].explicit:
             given = getattr(namespace, "_given", set())
-            for name, value in EXPLICIT_DEFAULTS.items():
+            for name, value in self.explicit_defaults.items():
                 if hasattr(namespace, name) and name not in given:
                     setattr(namespace, name, value)
 
@@ -150,6 +158,29 @@ def scheme_mass(args: argparse.Namespace) -> str:
     return "lumped" if SCHEMES[args.scheme].explicit else "consistent"
 
 
+def step_taken(simulation, quiet: bool = False) -> float:
+    """The step ``simulation`` takes: ``--dt``, or with ``--dt auto`` the verlet scheme's
+    share of its estimated stable step (docs/method.md section 12).
+
+    A demo makes it its ``args.dt`` once its main simulation is built, so that what
+    follows, the compared runs, the refinement levels, the summaries, the figures, takes
+    the step of the run. An explicit run says at its start (on rank 0) its estimated stable
+    step when its run will not say it (a run without progress): with ``quiet`` that line
+    alone, else also the step and how many steps it makes."""
+    stable = getattr(simulation.stepper, "stable_dt", None)
+    if stable is None or simulation.comm.rank != 0:
+        return simulation.dt
+    estimate = "" if simulation.progress else f"stable dt = {stable:.6g} (estimated)"
+    if quiet:
+        if estimate:
+            print(estimate, flush=True)
+        return simulation.dt
+    steps = f"dt = {simulation.dt:.6g}, {simulation.num_steps} steps to T = {simulation.t_end:g}"
+    print(f"{simulation.scheme.describe()}: {', '.join(filter(None, [estimate, steps]))}",
+          flush=True)  # fmt: skip
+    return simulation.dt
+
+
 def add_method_arguments(
     parser: argparse.ArgumentParser,
     *,
@@ -159,13 +190,17 @@ def add_method_arguments(
     t_end: float,
     beta: float = 0.25,
     gamma: float = 0.5,
+    explicit_gamma0: float | None = None,
 ) -> None:
     """Add the scheme and Nitsche flags of docs/method.md section 6 with the given defaults
-    (the others: the TOML defaults)."""
+    (the others: the TOML defaults); ``explicit_gamma0``: the default of ``--gamma0`` with
+    an explicit scheme, where the implicit one would make the stable step tiny (docs/method.md
+    section 12)."""
     given = {"--gamma0": gamma0, "--degree": degree, "--dt": dt, "--t-end": t_end,
              "--beta": beta, "--gamma": gamma}  # fmt: skip
     actions = {"--max-step-cuts": {"metavar": "N"}, "--dt": {"action": _Given},
-               "--scheme": {"action": _Scheme}}  # fmt: skip
+               "--gamma0": {"action": _Given},
+               "--scheme": {"action": _Scheme, "explicit_gamma0": explicit_gamma0}}  # fmt: skip
     for flag in METHOD_FLAGS:
         add_parameter_argument(parser, flag, given.get(flag, TOML_DEFAULT), **actions.get(flag, {}))
 

@@ -290,6 +290,7 @@ def block_problem(
     nitsche_theta: float = 1.0,
     comm=MPI.COMM_WORLD,
     gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
 ) -> ContactProblem:
     """A block resting on the rigid plane y = 0 under gravity, thrown along it (plane strain).
 
@@ -306,6 +307,7 @@ def block_problem(
         friction: Coulomb coefficient mu_f (None: frictionless).
         gamma0: Nitsche parameter; default 1e-3 / E (the scale of the ball test), or 1e-3
             with ``gamma0_scaling="E"``.
+        mass: That of :class:`~nitsche_dolfinx.model.ContactProblem`.
     """
     mesh, tags = block_mesh(width, height, nx, ny, comm=comm)
     material = Material(E=E, nu=0.0, rho=rho)
@@ -318,6 +320,7 @@ def block_problem(
         nitsche_theta=nitsche_theta,
         friction=friction,
         gamma0_scaling=gamma0_scaling,
+        mass=mass,
     )
     problem.add_obstacle(PlaneObstacle(point=[0.0, 0.0], normal=[0.0, 1.0]), BLOCK_CONTACT)
     problem.add_body_force([rho * gravity * slope, -rho * gravity])

@@ -88,6 +88,7 @@ SCHEME_COLOURS = {
     "cn": "tab:red",
     "theta": "tab:green",
     "newmark": "tab:orange",
+    "verlet": "tab:purple",
 }
 
 #: The parts of E^h drawn with a single run's energy.

@@ -126,15 +126,16 @@ def bar_summary(histories: Sequence, labels: Sequence[str], dt: float) -> None:
     """Print one line per bar run: the l2(0, T) error of u(t, 0), the relative energy
     change at T, the largest one-step increase of E_Theta (round-off for the hybrid
     scheme with Theta = 1) and the Newton iterations per step; then E(T) of each."""
+    width = max(36, *map(len, labels))
     print(
-        f"{'run':36s} {'l2 error u(.,0)':>16s} {'E(T)/E(0) - 1':>14s} "
+        f"{'run':{width}s} {'l2 error u(.,0)':>16s} {'E(T)/E(0) - 1':>14s} "
         f"{'max step dE_Theta':>18s} {'Newton/step':>12s}"
     )
     for history, label in zip(histories, labels):
         error = bar_contact_errors(history, dt)["error_u_contact"]
         rise = np.max(np.diff(history["energy_theta"]))
         print(
-            f"{label:36s} {error:16.4e} {history.energy_drift():+14.3%} "
+            f"{label:{width}s} {error:16.4e} {history.energy_drift():+14.3%} "
             f"{rise:18.2e} {history.mean_newton_iterations():12.3f}"
         )
     print(
@@ -211,7 +212,7 @@ def convergence_table(results: dict, labels: dict) -> str:
     for name, rows in results.items():
         orders = {error: _orders(rows, error) for error in CONVERGENCE_ERRORS}
         for k, row in enumerate(rows):
-            line = [labels[name], str(row["N"]), f"{row['tau']:.5f}"]
+            line = [labels[name], str(row["N"]), f"{row['tau']:.4g}"]
             for error in CONVERGENCE_ERRORS:
                 order = orders[error][k]
                 line += [f"{row[error]:.3e}", "" if np.isnan(order) else f"{order:.2f}"]

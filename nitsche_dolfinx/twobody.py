@@ -360,16 +360,18 @@ def ball_on_slab_problem(
     comm=MPI.COMM_WORLD,
     nitsche_theta: float = 1.0,
     gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
 ):
     """The ball of the impact test thrown down at v0 (and gravity) on a slab of the same
     material (lambda = mu = 20, rho = 1) resting on the rigid ground: body-body contact
     between the ball's lower half and the slab's top (:meth:`~nitsche_dolfinx.model.ContactProblem.
     add_contact_pair`, paired along the vertical), body-obstacle contact of the slab's
-    bottom with the ground. Returns ``(problem, cell_tags)``."""
+    bottom with the ground (``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`).
+    Returns ``(problem, cell_tags)``."""
     mesh, cells, facets = ball_on_slab_mesh(dim, mesh_size, comm=comm)
     problem = ContactProblem(
         mesh, facets, Material.from_lame(20.0, 20.0, rho=1.0), 2, gamma0, nitsche_theta,
-        gamma0_scaling=gamma0_scaling,
+        gamma0_scaling=gamma0_scaling, mass=mass,
     )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0

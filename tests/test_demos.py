@@ -8,6 +8,7 @@ import re
 import runpy
 import subprocess
 import sys
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from runs import MPIRUN, assert_same_history, assert_xdmf_readable, run
 
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
+from nitsche_dolfinx.history import HISTORY_COLUMNS
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))
@@ -35,20 +37,30 @@ def run_demo(name, *args):
     )
 
 
-def demo_help(name: str) -> str:
-    """What ``demos/<name> --help`` prints, the demo run as a script in this process."""
+def run_here(name: str, *args) -> tuple[int, str, str]:
+    """``demos/<name> args`` run as a script in this process (without the start-up of a
+    Python of its own): its exit status, standard output and standard error."""
     folder = os.path.join(REPO, "demos")
     saved = sys.argv, list(sys.path)
-    sys.argv = [os.path.join(folder, name), "--help"]
+    sys.argv = [os.path.join(folder, name), *args]
     sys.path.insert(0, folder)  # disk_2d.py and two_disks_2d.py import their 3D demo
-    text = io.StringIO()
+    out, err = io.StringIO(), io.StringIO()
+    status = 0
     try:
-        with contextlib.redirect_stdout(text), pytest.raises(SystemExit) as stop:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             runpy.run_path(sys.argv[0], run_name="__main__")
+    except SystemExit as stop:
+        status = stop.code or 0
     finally:
         sys.argv, sys.path[:] = saved
-    assert stop.value.code == 0, name
-    return text.getvalue()
+    return status, out.getvalue(), err.getvalue()
+
+
+def demo_help(name: str) -> str:
+    """What ``demos/<name> --help`` prints, the demo run as a script in this process."""
+    status, out, _ = run_here(name, "--help")
+    assert status == 0, name
+    return out
 
 
 @pytest.mark.parametrize("name", DEMOS)
@@ -230,3 +242,111 @@ def test_ball_on_slab_demo_runs_both_contacts(tmp_path):
     # plus twice the round-off of E_Theta (6.3e-11): 7.5e-9 = 1.2e-11 E_Theta
     assert np.diff(history["energy_theta"]).max() < 1.2e-11 * history["energy_theta"].max()
     assert history["contact_force"][-1] > 0
+
+
+class VerletRun(NamedTuple):
+    """A demo with ``--scheme verlet``, short: its flags, the history of its run (in OUT)
+    with the columns docs/method.md section 6 gives it, and the histories of its compared
+    runs (in OUT), which take the same step."""
+
+    flags: tuple
+    history: str
+    columns: tuple
+    compared: tuple = ()
+
+
+#: The listed columns of the impact demos' history.csv (docs/method.md section 6).
+IMPACT_COLUMNS = HISTORY_COLUMNS[:11]
+#: Those of the two bars (docs/method.md section 6, two bodies).
+TWO_BARS_COLUMNS = (
+    "t", "energy", "energy_theta", "contact_force", "momentum", "v_left", "v_right",
+    "newton_iterations",
+)  # fmt: skip
+BAR = ("--nx", "10", "--t-end", "0.02")  # 283 steps
+#: The same with --scheme verlet, whose gamma0 is then 0.5 (dt 0.05 on 10 cells): 6 steps
+VERLET_BAR = ("--nx", "10", "--t-end", "0.3")
+SCHEMES = ("hybrid", "cn", "theta", "newmark")  # compared with the ball and the disk
+VERLET_RUNS = {
+    "bar_1d.py": VerletRun(VERLET_BAR, "history.csv", BAR_COLUMNS, ("cn",)),
+    "bar_loop_1d.py": VerletRun(VERLET_BAR, "history.csv", BAR_COLUMNS),
+    "bar_loop_1d.py --run": VerletRun((*VERLET_BAR, "--run"), "history.csv", BAR_COLUMNS),
+    "compare_methods_1d.py": VerletRun(
+        VERLET_BAR,
+        "nitsche_verlet/history.csv",
+        BAR_COLUMNS,
+        ("mixed_cn", "nitsche_cn", "modified_mass"),
+    ),
+    "convergence_1d.py": VerletRun(
+        ("--levels", "5", "10", "--t-end", "0.5", "--output-every", "1000"),
+        "hybrid/N10/history.csv",
+        IMPACT_COLUMNS,
+        ("cn/N10", "mixed/N10", "modified_mass/N10"),
+    ),
+    "two_bars_1d.py": VerletRun(VERLET_BAR, "history.csv", TWO_BARS_COLUMNS),
+    "ring_2d.py": VerletRun(("--t-end", "0.001"), "history.csv", IMPACT_COLUMNS),
+    "disk_2d.py": VerletRun(
+        ("--mesh-size", "16", "--t-end", "0.5"), "history.csv", IMPACT_COLUMNS, SCHEMES
+    ),
+    "ball_3d.py": VerletRun(
+        ("--mesh-size", "20", "--t-end", "0.3"), "history.csv", IMPACT_COLUMNS, SCHEMES
+    ),
+    "two_disks_2d.py": VerletRun(
+        ("--mesh-size", "16", "--t-end", "0.3"),
+        "history.csv",
+        (*IMPACT_COLUMNS, "momentum_x", "momentum_y"),
+        ("plane",),
+    ),
+    "two_balls_3d.py": VerletRun(
+        ("--mesh-size", "20", "--t-end", "0.2"),
+        "history.csv",
+        (*IMPACT_COLUMNS, "momentum_x", "momentum_y", "momentum_z"),
+        ("plane",),
+    ),
+    "ball_on_slab_3d.py": VerletRun(
+        ("--dim", "2", "--t-end", "0.1"),
+        "history.csv",
+        (*IMPACT_COLUMNS, "momentum_x", "momentum_y"),
+    ),
+}
+#: The demos that refuse --scheme verlet, with the flags of a short run.
+VERLET_REFUSED = {
+    "friction_block_2d.py": ("--nx", "2", "--t-end", "0.1"),  # the verlet scheme is frictionless
+    "compare_methods_1d.py --penalty": (*VERLET_BAR, "--penalty"),  # and Nitsche's method
+}
+
+
+def test_every_demo_is_tried_with_verlet():
+    """Every demo runs with --scheme verlet or refuses it."""
+    tried = {name.split()[0] for name in (*VERLET_RUNS, *VERLET_REFUSED)}
+    assert tried == set(DEMOS)
+
+
+@pytest.mark.parametrize("case", sorted(VERLET_RUNS))
+def test_demo_runs_verlet(tmp_path, case):
+    """docs/method.md section 12: with --scheme verlet, --dt is the stable step the package
+    estimates, printed at the start; the history keeps its columns, with no Newton
+    iterations; the compared runs take the same step."""
+    run = VERLET_RUNS[case]
+    status, out, err = run_here(
+        case.split()[0], "--scheme", "verlet", *run.flags, "--no-plot", "--out", str(tmp_path)
+    )
+    assert status == 0, err
+    stable = float(re.search(r"stable dt = (\S+)", out).group(1))
+    history = read_history(str(tmp_path / run.history))
+    assert history.columns[: len(run.columns)] == list(run.columns)
+    assert np.all(history["newton_iterations"] == 0)
+    assert 0 < history["t"][1] <= stable
+    for folder in run.compared:
+        compared = read_history(str(tmp_path / folder / "history.csv"))
+        assert np.array_equal(compared["t"], history["t"]), folder
+
+
+@pytest.mark.parametrize("case", sorted(VERLET_REFUSED))
+def test_demo_refuses_verlet_in_one_line(tmp_path, case):
+    flags = VERLET_REFUSED[case]
+    status, out, err = run_here(
+        case.split()[0], "--scheme", "verlet", *flags, "--out", str(tmp_path)
+    )
+    assert status == 2, err
+    assert len(err.splitlines()) == 1 and "the verlet scheme" in err, err
+    assert "Traceback" not in out + err
