@@ -203,7 +203,7 @@ def test_auto_is_the_verlet_scheme_s_and_its_step_is_said_at_start(capsys):
      (["--scheme", "verlet", "--dt", "0.001"], 0.001), (["--scheme", "hybrid"], 0.015)],
 )  # fmt: skip
 def test_an_explicit_scheme_makes_the_demo_step_auto_unless_dt_is_given(flags, dt):
-    """../shared/SPEC.md section 9: with --scheme verlet, --dt defaults to the estimate."""
+    """docs/method.md section 12: with --scheme verlet, --dt defaults to the estimate."""
     import argparse
 
     from nitsche_dolfinx.arguments import add_method_arguments
