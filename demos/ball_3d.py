@@ -123,7 +123,7 @@ def run(args, dim: int, scheme: str, out: str, compared: bool = False, callback=
     verlet scheme takes the lumped mass; the main run's step (``--dt auto``: the verlet
     scheme's) becomes ``--dt``, the compared runs'."""
     parameters = {"theta": args.theta, "beta": args.beta, "gamma": args.gamma,
-                  "safety": args.safety, "allow_unstable_dt": args.allow_unstable_dt}  # fmt: skip
+                  "safety": args.safety, "force_dt": args.force_dt}  # fmt: skip
     if compared:
         parameters.update(IMPACT_SCHEMES[scheme])
     time_scheme = make_scheme(scheme, **parameters)

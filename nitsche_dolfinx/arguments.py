@@ -107,7 +107,7 @@ def add_parameter_argument(
 
 
 #: The flags of :func:`add_method_arguments`, in their order.
-METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--allow-unstable-dt",
+METHOD_FLAGS = ("--scheme", "--theta", "--beta", "--gamma", "--safety", "--force-dt",
                 "--mass-solver",
                 "--nitsche-theta", "--gamma0", "--gamma0-scaling", "--degree", "--dt",
                 "--t-end", "--max-step-cuts")  # fmt: skip
@@ -226,7 +226,7 @@ def scheme_from_arguments(args: argparse.Namespace, name: str | None = None) -> 
     """The scheme ``name`` (``args.scheme`` by default) with the parameters of ``args``."""
     return make_scheme(
         name or args.scheme, theta=args.theta, beta=args.beta, gamma=args.gamma,
-        safety=args.safety, allow_unstable_dt=args.allow_unstable_dt,
+        safety=args.safety, force_dt=args.force_dt,
         mass_solver=args.mass_solver,
     )  # fmt: skip
 

@@ -216,7 +216,7 @@ class VerletScheme(TimeScheme):
 
     Args:
         safety: The share of the estimated stable step that ``dt = "auto"`` takes, in (0, 1].
-        allow_unstable_dt: Take a given dt above the estimated stable step (else refused).
+        force_dt: Take a given dt above the estimated stable step (else refused).
         mass_solver: How a step solves with the consistent mass: ``"none"`` (only a
             diagonal mass is taken) or ``"cg"`` (conjugate gradients with Jacobi).
     """
@@ -226,22 +226,22 @@ class VerletScheme(TimeScheme):
     parameters = {
         "safety": Key("number", DEFAULT_SAFETY, "verlet: the share of the stable step that "
                       "dt = auto takes, in (0, 1]"),
-        "allow_unstable_dt": Key("boolean", False, "verlet: take a dt above the estimated "
+        "force_dt": Key("boolean", False, "verlet: take a dt above the estimated "
                                  "stable step"),
         "mass_solver": Key("string", "none", "verlet: the solve a step makes with the "
                            "consistent mass (none: a diagonal mass only; cg: conjugate "
                            "gradients with Jacobi)", choices=MASS_SOLVERS),
     }  # fmt: skip
 
-    def __init__(self, safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False,
+    def __init__(self, safety: float = DEFAULT_SAFETY, force_dt: bool = False,
                  mass_solver: str = "none"):  # fmt: skip
         require_real(safety, "safety", "the safety factor")
         require(0.0 < safety <= 1.0, "safety", safety, "the safety factor must lie in (0, 1]")
-        require(isinstance(allow_unstable_dt, bool), "allow_unstable_dt", allow_unstable_dt,
+        require(isinstance(force_dt, bool), "force_dt", force_dt,
                 "true or false")  # fmt: skip
         require_choice(mass_solver, MASS_SOLVERS, "mass_solver", "the mass solver")
         self.safety = float(safety)
-        self.allow_unstable_dt = allow_unstable_dt
+        self.force_dt = force_dt
         self.mass_solver = mass_solver
 
     def kinematics(self, u, v, a, w, dt):
@@ -275,12 +275,12 @@ def scheme_parameters() -> dict[str, Key]:
 
 def make_scheme(
     name: str, theta: float = 1.0, beta: float = 0.25, gamma: float = 0.5,
-    safety: float = DEFAULT_SAFETY, allow_unstable_dt: bool = False, mass_solver: str = "none",
+    safety: float = DEFAULT_SAFETY, force_dt: bool = False, mass_solver: str = "none",
 ) -> TimeScheme:  # fmt: skip
     """The scheme called ``name`` (a key of :data:`SCHEMES`) with the parameters it takes
     (the others are ignored)."""
     require_choice(name, SCHEMES, "scheme", "scheme")
     cls = SCHEMES[name]
     given = {"theta": theta, "beta": beta, "gamma": gamma, "safety": safety,
-             "allow_unstable_dt": allow_unstable_dt, "mass_solver": mass_solver}  # fmt: skip
+             "force_dt": force_dt, "mass_solver": mass_solver}  # fmt: skip
     return cls(**{key: given[key] for key in cls.parameters})

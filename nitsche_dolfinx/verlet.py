@@ -192,12 +192,12 @@ class ExplicitStepper(TimeLevels):
         scheme, stable, dt = self.scheme, self.stable_dt, time_stepping.dt
         if time_stepping.automatic:
             return round_down(scheme.safety * stable)
-        if dt > stable and not scheme.allow_unstable_dt:
+        if dt > stable and not scheme.force_dt:
             raise ParameterError(
                 "dt", dt,
                 f"above the verlet scheme's stable step {stable:.6g} (estimated for this "
                 f"mesh, mass, gamma0 and Theta); take dt='auto' ({scheme.safety:g} of it) or "
-                "allow the step explicitly (allow_unstable_dt)",
+                "insist on it (force_dt, the flag --force-dt)",
             )  # fmt: skip
         return float(dt)
 

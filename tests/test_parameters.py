@@ -95,7 +95,7 @@ def test_demo_flags_keep_their_names_and_defaults():
     assert args == {
         "scheme": "hybrid", "theta": 1.0, "beta": 0.3, "gamma": 0.5, "nitsche_theta": 1.0,
         "gamma0": 1e-6, "gamma0_scaling": "absolute", "degree": 1, "dt": 0.015, "t_end": 6.0,
-        "safety": 0.5, "allow_unstable_dt": False, "mass_solver": "none", "max_step_cuts": 5,
+        "safety": 0.5, "force_dt": False, "mass_solver": "none", "max_step_cuts": 5,
         "checkpoint_every": 0, "restart": False, "output_every": 10, "quiet": False,
         "no_plot": False,
     }  # fmt: skip

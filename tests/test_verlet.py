@@ -109,7 +109,7 @@ def test_a_step_above_the_stable_one_is_refused_and_a_blow_up_stops_the_run(tmp_
     with pytest.raises(ParameterError, match=refused):
         Simulation(problem, VerletScheme(), dt=0.008, t_end=6.0)
     simulation = Simulation(
-        bar_problem(nx=100, gamma0=0.1, mass="lumped"), VerletScheme(allow_unstable_dt=True),
+        bar_problem(nx=100, gamma0=0.1, mass="lumped"), VerletScheme(force_dt=True),
         dt=0.02, t_end=20.0,
     )  # fmt: skip
     with pytest.raises(UnstableStep, match="the verlet steps blew up"):
