@@ -389,6 +389,14 @@ class ContactProblem:
         return bool(self._body_forces or self._tractions)
 
     @property
+    def autonomous(self) -> bool:
+        """Whether no load and no Dirichlet value depends on t (the energy is then kept, or
+        dissipated, by the contact)."""
+        values = [*self._body_forces, *(t for _, t in self._tractions),
+                  *(c.value for c in self.dirichlet)]  # fmt: skip
+        return not any(value.time_dependent for value in values)
+
+    @property
     def has_tractions(self) -> bool:
         """Whether a traction was added."""
         return bool(self._tractions)

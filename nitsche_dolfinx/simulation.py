@@ -18,6 +18,8 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 from .agreement import FailureChannel
 from .checkpoint import CheckpointError, SavedState, load_state, save_state
 from .collective import collect_garbage_together, garbage_collected_together
@@ -329,6 +331,16 @@ class _Run:
                 f"{sim.scheme.describe()}: stable dt = {stable:.6g} (estimated), dt = {sim.dt:.6g} "
                 f"({sim.dt / stable:.3g} of it)"
             )
+            ratio = sim.stepper.coercivity
+            if ratio >= 1.0 and self.comm.rank == 0:  # even when quiet
+                gamma0 = float(np.asarray(sim.problem.gamma0.value))
+                self.progress.message(
+                    f"note: gamma0 = {gamma0:.6g} is beyond the coercivity bound of this mesh "
+                    f"for Theta > 0 (cell-wise ratio {ratio:.3g} >= 1; gamma0 below "
+                    f"{gamma0 / ratio:.3g} keeps A_Thgamma coercive): the explicit steps may "
+                    "grow whatever dt (docs/method.md section 12)",
+                    file=sys.stderr,
+                )
         if self.out is None:
             return
         path = os.path.join(self.out, "history.csv")

@@ -28,6 +28,7 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 from . import compat
+from .coercivity import coercivity_ratio, constant_value
 from .collective import sum_over_ranks
 from .contact import positive_part
 from .diagnostics import Diagnostics, assembled_matrix
@@ -62,17 +63,25 @@ class UnstableStep(SolverError):
 
     cut_may_help = False
 
-    def __init__(self, energy: float, reference: float, dt: float, stable_dt: float):
+    def __init__(self, energy: float, reference: float, dt: float, stable_dt: float,
+                 drift: bool = False):  # fmt: skip
         self.energy, self.reference = energy, reference
-        self.dt, self.stable_dt = dt, stable_dt
+        self.dt, self.stable_dt, self.drift = dt, stable_dt, drift
         super().__init__(0, 0, float("nan"))
         self.reason_name = "UNSTABLE"
 
     def _message(self) -> str:
         where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
+        grown = (
+            f"the energy drifted by {self.energy:.6g} from its initial value, more than "
+            f"{BLOWUP_FACTOR:g} times its initial scale {self.reference:.6g} (no load or "
+            "Dirichlet value depends on t)"
+            if self.drift
+            else f"kinetic + elastic energy {self.energy:.6g}, against at most "
+            f"{self.reference:.6g} until {BLOWUP_WINDOW} steps before"
+        )
         return (
-            f"{where}the verlet steps blew up: kinetic + elastic energy {self.energy:.6g}, "
-            f"against at most {self.reference:.6g} until {BLOWUP_WINDOW} steps before; "
+            f"{where}the verlet steps blew up: {grown}; "
             f"dt = {self.dt:.6g} for an estimated stable step of {self.stable_dt:.6g}: take a "
             "smaller dt (or safety); a growth at every step whatever dt is gamma0 beyond the "
             "stability limit of the mesh (gamma0 * E near 1): a smaller gamma0"
@@ -160,8 +169,15 @@ class ExplicitStepper(TimeLevels):
         massless = np.setdiff1d(problem.massless_dofs(), fixed)
         self._massless_dofs = massless if self._massless.active else massless[:0]
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
-        #: in contact (:func:`largest_eigenvalue`).
-        self.stable_dt = 2.0 / np.sqrt(largest_eigenvalue(problem, affine, self._mass))
+        #: in contact (:func:`largest_eigenvalue`), and for Theta != 1, where the contact
+        #: term is not a nonnegative addition, also with none of it
+        largest = largest_eigenvalue(problem, affine, self._mass)
+        if any(constant_value(c.nitsche_theta) != 1.0 for c in problem.contacts):
+            largest = max(largest, largest_eigenvalue(problem, affine, self._mass, False))
+        self.stable_dt = 2.0 / np.sqrt(largest)
+        #: The cell-wise coercivity bound of A_Thgamma (:func:`coercivity_ratio`): at 1 or
+        #: above, A_Thgamma may be indefinite and the steps grow whatever dt.
+        self.coercivity = coercivity_ratio(problem)
         if affine is not self._stiffness:
             affine.destroy()
         self._start_levels(TimeStepping(self._resolve(time_stepping), time_stepping.t_end, 0))
@@ -184,6 +200,13 @@ class ExplicitStepper(TimeLevels):
         initial = self.diagnostics.energies()
         #: the largest energy scale up to the window (see _check_growth)
         self._settled = max(self._energy_scale(), abs(initial["potential"]))
+        #: the initial energy and its scale, for :meth:`_check_drift` (None: the loads or
+        #: the Dirichlet values depend on t)
+        self._initial_energy = (
+            (initial["energy"], max(self._settled, abs(initial["energy"])))
+            if problem.autonomous and self._settled > 0
+            else None
+        )
         self._recent: deque[float] = deque()  # kinetic + elastic of the last levels
 
     def _resolve(self, time_stepping: TimeStepping) -> float:
@@ -270,7 +293,9 @@ class ExplicitStepper(TimeLevels):
         u, v, a = self.u.x.array, self.v.x.array, self.a.x.array
         for previous, array in zip(self._previous, (u, v, a)):
             previous[:] = array
-        self._energy_before = self.diagnostics.of_level(self.step_index)["energy_theta"]
+        level = self.diagnostics.of_level(self.step_index)
+        self._energy_before = level["energy_theta"]
+        self._check_drift(level["energy"], dt)
         u += dt * v + dt**2 / 2 * a
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
@@ -289,6 +314,20 @@ class ExplicitStepper(TimeLevels):
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
+
+    def _check_drift(self, energy: float, dt: float) -> None:
+        """Raise :class:`UnstableStep` at a level whose energy drifted from its initial value
+        by more than :data:`BLOWUP_FACTOR` times its initial scale, when nothing feeds the
+        body energy (:attr:`ContactProblem.autonomous`): a slow geometric growth, which
+        :meth:`_check_growth`'s window lets through, stops there."""
+        if self._initial_energy is None:
+            return
+        initial, scale = self._initial_energy
+        drift = abs(energy - initial)
+        if not drift <= BLOWUP_FACTOR * scale:  # (NaN too)
+            error = UnstableStep(drift, scale, dt, self.stable_dt, drift=True)
+            error.add_context(step=self.step_index, t=self.t)
+            raise error
 
     def _potential(self) -> float:
         """-L(t)(u), the body force lumped as the steps take it (M f / rho . u: the sums
@@ -441,19 +480,19 @@ class PairStiffness:
             obj.destroy()
 
 
-def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass, iterations=200,
-                       rtol=1e-6) -> float:  # fmt: skip
+def largest_eigenvalue(problem: ContactProblem, affine: PETSc.Mat, mass,
+                       with_contact: bool = True, iterations=200, rtol=1e-6) -> float:  # fmt: skip
     """The largest eigenvalue of M^-1 K, K = ``affine`` (the matrix of the affine terms)
-    plus :func:`contact_stiffness_form`, M the ``mass`` (an
+    plus, ``with_contact``, :func:`contact_stiffness_form`, M the ``mass`` (an
     :mod:`~nitsche_dolfinx.explicit_mass` mass: zero rows at the dofs without an
     acceleration of their own, which the estimate leaves out), by power iterations
     x <- M^-1 K x, as the Rayleigh quotient x.K x / x.M x (a lower bound that converges
     from below). With massless nodes it is the largest eigenvalue of the massive dofs' K
     alone, above that of K with the massless nodes in equilibrium: the estimated step is
     then on the safe side."""
-    form = contact_stiffness_form(problem)
+    form = contact_stiffness_form(problem) if with_contact else None
     contact = None if form is None else assembled_matrix(form)
-    pairs = PairStiffness(problem) if problem.pairs else None
+    pairs = PairStiffness(problem) if problem.pairs and with_contact else None
     x, y, z = (affine.createVecRight() for _ in range(3))
     n = x.getLocalSize()
     start = fem.Function(problem.V)  # the same start on every partition: a function of x

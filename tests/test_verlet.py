@@ -263,3 +263,53 @@ def test_two_disks_on_ranks_are_the_disks_serially(along_axis):
     for column in ("energy", "energy_theta", "contact_force", "penetration_max"):
         scale = np.abs(serial[column]).max()
         assert np.abs(parallel[column] - serial[column]).max() <= 1e-12 * scale, column
+
+
+def test_the_coercivity_bound_is_gamma0_E_on_the_bar_and_sufficient_on_the_disk():
+    """The cell-wise bound of docs/method.md section 12: exactly gamma0 E in 1D P1 (the
+    contact node's stiffness out of contact is (1 - gamma0 E) E / h). On the P2 disk it is
+    proportional to gamma0, and where it is below 1 the operator of the affine terms is
+    positive semidefinite (dense eigenvalues of D^-1/2 K D^-1/2: its smallest over its
+    largest is round-off, -8e-16, at gamma0 E = 0.09; the operator turns indefinite
+    between 0.12 and 0.15, the bound reaches 1 at 0.098, measured)."""
+    from nitsche_dolfinx.coercivity import coercivity_ratio
+    from nitsche_dolfinx.diagnostics import assembled_matrix
+
+    for gamma0 in (0.1, 0.5):
+        assert coercivity_ratio(bar_problem(nx=20, gamma0=gamma0)) == pytest.approx(gamma0)
+    assert coercivity_ratio(bar_problem(nx=20, gamma0=0.5, nitsche_theta=0.0)) == 0.0
+    problem = impact_problem(dim=2, mesh_size=8.0, gamma0=0.09 / 50, mass="lumped",
+                             comm=MPI.COMM_SELF)  # fmt: skip
+    ratio = coercivity_ratio(problem)
+    assert 0.9 < ratio < 1.0
+    u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
+    affine = problem.bulk_stiffness(u, v) + problem.contacts[0].affine_terms(u, v)
+    K = assembled_matrix(affine).convert("dense").getDenseArray()
+    scale = 1.0 / np.sqrt(problem.mass_diagonal().array)
+    values = np.linalg.eigvalsh(scale[:, None] * (K + K.T) / 2 * scale[None, :])
+    assert values[0] >= -1e-12 * values[-1]
+
+
+def test_beyond_the_coercivity_bound_a_run_says_so(capsys):
+    """gamma0 E = 0.15 on the P2 disk (the bound 1.53): a note at the start, even quiet."""
+    problem = impact_problem(dim=2, mesh_size=8.0, gamma0=3e-3, mass="lumped")
+    simulation = Simulation(problem, VerletScheme(), dt="auto", t_end=0.5)
+    simulation.run(columns=["t"])
+    if MPI.COMM_WORLD.rank == 0:
+        said = capsys.readouterr().err
+        assert "gamma0 = 0.003 is beyond the coercivity bound of this mesh" in said
+        assert "gamma0 below 0.00196 keeps A_Thgamma coercive" in said
+
+
+def test_a_slow_growth_stops_when_the_energy_has_drifted_a_hundredfold(tmp_path):
+    """dt 1.7 times the estimate on the bar (gamma0 = 0.1, forced): the energy grows by a
+    few percent a step, which the window of 100 steps lets through; with nothing feeding
+    the bar energy, the run stops once it has drifted by 100 times its initial 1/8 (at
+    step 841, measured), its history kept."""
+    simulation = Simulation(bar_problem(nx=100, gamma0=0.1, mass="lumped"),
+                            VerletScheme(force_dt=True), dt=0.008, t_end=40.0)  # fmt: skip
+    with pytest.raises(UnstableStep, match="the energy drifted by .* more than 100 times its"):
+        simulation.run(out=str(tmp_path), columns=["t", "energy"])
+    written = read_history(os.path.join(tmp_path, "history.csv"))
+    assert 500 < len(written["t"]) < 5000 and np.isfinite(written["energy"]).all()
+    assert abs(written["energy"][-1] - 0.125) > 100 * 0.125
