@@ -199,4 +199,33 @@ def test_every_demo_has_a_configuration():
     covered = {name for name in demos if any(toml.startswith(name) for toml in tomls)}
     assert demos - covered == {"convergence_1d", "bar_loop_1d"}
     shipped = {name for name in os.listdir(DEMOS) if name.endswith(".toml")}
-    assert shipped == {case[0] for case in CASES.values()}
+    assert shipped == {case[0] for case in CASES.values()} | set(TOML_ONLY)
+
+
+#: TOML files of their own (no demo): each with the replacements of a short run.
+TOML_ONLY = {
+    # the ball as coarse as its contact zone, to the middle of its contact
+    "steel_ball_3d.toml": {
+        "mesh_size = 0.002": "mesh_size = 0.004",
+        "t_end = 6e-5": "t_end = 1e-5",
+    },
+}
+
+
+@pytest.mark.parametrize("name", sorted(TOML_ONLY))
+def test_a_configuration_of_its_own_runs(tmp_path, name, capsys):
+    """The steel ball in SI units: the verlet scheme's stable step said at the start, the
+    ball in contact at the end of the short run, E_Theta kept (the explicit scheme's energy
+    between status changes, docs/method.md section 12: 1e-4 of it, measured 4e-6 on the
+    full run)."""
+    path = shortened(name, TOML_ONLY[name], str(tmp_path))
+    with open(path) as f:
+        text = f.read().replace('dir = "../out/steel_ball_3d"', f'dir = "{tmp_path / "out"}"')
+    with open(path, "w") as f:
+        f.write(text)
+    assert cli(["run", path]) == 0
+    history = read_history(str(tmp_path / "out" / "history.csv"))
+    assert "stable dt = " in capsys.readouterr().out
+    assert history["contact_force"][-1] > 0
+    energy = history["energy_theta"]
+    assert np.abs(energy - energy[0]).max() <= 1e-4 * energy[0]
