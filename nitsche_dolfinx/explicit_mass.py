@@ -59,7 +59,7 @@ class DiagonalMass:
     def mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """y = M x (owned entries)."""
         n = x.getLocalSize()
-        y.array[:] = self.diagonal[:n] * x.array
+        np.multiply(self.diagonal[:n], x.array_r, out=y.array_w)
 
     def solve(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """y = M^-1 x (owned entries; zero at the dofs without acceleration)."""

@@ -190,6 +190,7 @@ class ExplicitStepper(TimeLevels):
         self.friction_dissipation = 0.0
         self._energy_before = None
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
+        self._scratch = np.empty_like(self.u.x.array)
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
         interpolate_initial(self.v, problem.initial_velocity, problem.gdim)
         self._dirichlet.set_values(self.u.x.array, 0.0)
@@ -296,7 +297,9 @@ class ExplicitStepper(TimeLevels):
         level = self.diagnostics.of_level(self.step_index)
         self._energy_before = level["energy_theta"]
         self._check_drift(level["energy"], dt)
-        u += dt * v + dt**2 / 2 * a
+        scratch = self._scratch  # in place: no temporaries of the size of u
+        u += np.multiply(dt, v, out=scratch)
+        u += np.multiply(dt**2 / 2, a, out=scratch)
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
         try:
@@ -305,7 +308,7 @@ class ExplicitStepper(TimeLevels):
             self._put_back()
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
-        v += dt / 2 * (self._previous[2] + a)
+        v += np.multiply(dt / 2, np.add(self._previous[2], a, out=scratch), out=scratch)
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
