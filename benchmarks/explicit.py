@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import gc
 import json
 import os
 import resource
@@ -169,6 +170,7 @@ def long_runs(args) -> None:
         columns = ["t", "energy", "energy_theta", "kinetic", "elastic", "potential",
                    "contact_force", "contact_area", "penetration_max"]  # fmt: skip
         parallel = disk(10_000).run(columns=columns)
+        gc.collect()  # on every rank here: the parallel run's PETSc objects, freed together
         serial = disk(10_000, MPI.COMM_SELF).run(columns=columns)
         if comm.rank == 0:
             print(f"disk, 10,000 steps, {comm.size} ranks against 1, largest difference over "

@@ -54,12 +54,11 @@ def coercivity_ratio(problem) -> float:
     boundary = _assembled(sum(-c.consistency_term(u, v) for c in contacts))
     bs = W.dofmap.index_map_bs
     start = W.dofmap.index_map.local_range[0] * bs
-    nodes = compat.dofmap_array(W)[cells]
-    dofs = ((nodes[:, :, None] * bs + np.arange(bs)).reshape(len(cells), -1) + start).astype(
-        PETSc.IntType
-    )
     largest = 0.0
-    if len(cells):
+    if len(cells):  # (a rank may hold no cell of Gamma_C)
+        nodes = compat.dofmap_array(W)[cells]
+        dofs = (nodes[:, :, None] * bs + np.arange(bs)).reshape(len(cells), -1) + start
+        dofs = dofs.astype(PETSc.IntType)
         K = np.array([bulk.getValues(d, d) for d in dofs])
         F = np.array([boundary.getValues(d, d) for d in dofs])
         largest = float(np.max(_cell_ratios(K, F)))

@@ -63,9 +63,13 @@ def garbage_collected_together(comm) -> Iterator[None]:
     object on that communicator then duplicates the communicator (collective) on one rank
     only: the ranks wait for each other for ever (seen with dolfinx 0.11 and Open MPI 5).
     With the collector held to common points, every rank frees the same objects at the same
-    point. On one rank nothing changes.
+    point. The ranks that count are the program's (``MPI.COMM_WORLD``), not only
+    ``comm``'s: a run on ``COMM_SELF`` in a program on several ranks may free the objects
+    of an earlier run on all of them (measured: a serial run after a parallel one on each
+    of 2 ranks waited for ever in PETSc's garbage cleanup on the world). In a program on
+    one rank nothing changes.
     """
-    if comm.size == 1:
+    if MPI.COMM_WORLD.size == 1:
         yield
         return
     enabled = gc.isenabled()
@@ -82,5 +86,5 @@ def garbage_collected_together(comm) -> Iterator[None]:
 def collect_garbage_together(comm, generation: int = 2) -> None:
     """Collect the reference cycles of ``generation`` (and younger) on every rank: called
     at the same point of a :func:`garbage_collected_together` block by every rank."""
-    if comm.size > 1:
+    if MPI.COMM_WORLD.size > 1:
         gc.collect(generation)

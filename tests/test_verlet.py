@@ -313,3 +313,20 @@ def test_a_slow_growth_stops_when_the_energy_has_drifted_a_hundredfold(tmp_path)
     written = read_history(os.path.join(tmp_path, "history.csv"))
     assert 500 < len(written["t"]) < 5000 and np.isfinite(written["energy"]).all()
     assert abs(written["energy"][-1] - 0.125) > 100 * 0.125
+
+
+@pytest.mark.mpi
+def test_the_bar_on_ranks_is_the_bar_serially():
+    """The bar on 2 ranks, its wall on one of them (the other holds no cell of Gamma_C),
+    through two impacts: as serially to round-off (1e-12)."""
+    columns = ["t", "energy", "energy_theta", "contact_force"]
+
+    def run(comm):
+        problem = bar_problem(nx=100, gamma0=0.5, mass="lumped", comm=comm)
+        return Simulation(problem, VerletScheme(), dt="auto", t_end=4.0).run(columns=columns)
+
+    parallel, serial = run(MPI.COMM_WORLD), run(MPI.COMM_SELF)
+    assert serial["contact_force"].max() > 0
+    for name in columns[1:]:
+        scale = np.abs(serial[name]).max()
+        assert np.abs(parallel[name] - serial[name]).max() <= 1e-12 * scale, name
