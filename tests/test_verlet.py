@@ -284,7 +284,9 @@ def test_the_coercivity_bound_is_gamma0_E_on_the_bar_and_sufficient_on_the_disk(
     assert 0.9 < ratio < 1.0
     u, v = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
     affine = problem.bulk_stiffness(u, v) + problem.contacts[0].affine_terms(u, v)
-    K = assembled_matrix(affine).convert("dense").getDenseArray()
+    matrix = assembled_matrix(affine)  # held: the dense array is a view of its memory
+    K = matrix.convert("dense").getDenseArray().copy()
+    matrix.destroy()
     scale = 1.0 / np.sqrt(problem.mass_diagonal().array)
     values = np.linalg.eigvalsh(scale[:, None] * (K + K.T) / 2 * scale[None, :])
     assert values[0] >= -1e-12 * values[-1]
