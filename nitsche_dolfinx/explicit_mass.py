@@ -163,6 +163,9 @@ class MasslessNodes:
         self.dofs = local[local < n].astype(np.int32)  # owned
         #: whether any rank has massless dofs
         self.active = comm.allreduce(self.dofs.size) > 0
+        #: the local massless dofs, ghosts included (none when no rank has any): their
+        #: velocity is a backward difference
+        self.local = local if self.active else local[:0]
         if not self.active:
             return
         rows = PETSc.IS().createGeneral(

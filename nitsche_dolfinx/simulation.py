@@ -18,10 +18,9 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from .agreement import FailureChannel
 from .checkpoint import CheckpointError, SavedState, load_state, save_state
+from .coercivity import constant_value
 from .collective import collect_garbage_together, garbage_collected_together
 from .history import HISTORY_COLUMNS, History
 from .linear_solvers import LinearSolver
@@ -333,7 +332,7 @@ class _Run:
             )
             ratio = sim.stepper.coercivity
             if ratio >= 1.0 and self.comm.rank == 0:  # even when quiet
-                gamma0 = float(np.asarray(sim.problem.gamma0.value))
+                gamma0 = constant_value(sim.problem.gamma0)
                 self.progress.message(
                     f"note: gamma0 = {gamma0:.6g} is beyond the coercivity bound of this mesh "
                     f"for Theta > 0 (cell-wise ratio {ratio:.3g} >= 1; gamma0 below "

@@ -109,8 +109,9 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
 
 
 class ExplicitStepper(TimeLevels):
-    """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme with
-    a diagonal mass: the force at u^{n+1} assembled as a vector, divided by the mass."""
+    """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme: the
+    force at u^{n+1} assembled as a vector, divided by the mass (a diagonal, or the
+    consistent one by CG: :mod:`~nitsche_dolfinx.explicit_mass`)."""
 
     def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping):
         _check_problem(problem, scheme)
@@ -124,7 +125,7 @@ class ExplicitStepper(TimeLevels):
         self.solver = None  # no solve in a step
         self._dirichlet = DirichletDofs(problem)
         test = ufl.TestFunction(V)
-        # the affine terms (the bulk and A_Thgamma's boundary part) as a matrix assembled
+        # the affine terms (the bulk and A_Thgamma's boundary part) as matrices assembled
         # once (blocked: faster products), and the contact force terms, on Gamma_C only,
         # and the tractions, on their boundaries only, as a vector each step
         trial = ufl.TrialFunction(V)
@@ -166,8 +167,6 @@ class ExplicitStepper(TimeLevels):
         self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
         affine = self._affine()
         self._massless = MasslessNodes(problem, self.u, forces, affine, fixed)
-        massless = np.setdiff1d(problem.massless_dofs(), fixed)
-        self._massless_dofs = massless if self._massless.active else massless[:0]
         #: The estimated stable step 2 / sqrt(lambda_max(M^-1 K)), K with all of Gamma_C
         #: in contact (:func:`largest_eigenvalue`), and for Theta != 1, where the contact
         #: term is not a nonnegative addition, also with none of it
@@ -312,7 +311,7 @@ class ExplicitStepper(TimeLevels):
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
-        massless_velocity(self._massless_dofs, self._previous[0], u, v, a, dt)
+        massless_velocity(self._massless.local, self._previous[0], u, v, a, dt)
         self._check_growth(self._energy_scale(), dt, t_new)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
