@@ -10,7 +10,9 @@ Three modes, each printing its table and saving it as CSV in ``--out``:
   the same for the time loop per step (the step with the history's diagnostics); then the
   exponent of the explicit step in the DOFs (least squares in log-log). ``--ranks 1 2``
   runs each mesh serially and under ``mpirun -n 2``, each in a process of its own, and
-  adds the speed-up of two ranks (serial median step over two-rank median step).
+  adds the speed-up of two ranks (serial median step over two-rank median step), and
+  that of one product with the bulk stiffness matrix alone (``bulk_product_ms``), the
+  ceiling the machine's memory bandwidth sets.
 - ``long``: 10,000 steps of the bar (P1 lumped, Theta = 1, gamma0 = 0.5, repeated
   impacts) and 2,000 steps of the disk (P2 HRZ, the talk's gamma0, bouncing on the
   plane) at the default safety: the spread of E_Theta over the run, relative to
@@ -46,15 +48,17 @@ import sys
 import time
 
 import numpy as np
+import ufl
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation, make_scheme, read_history
 from nitsche_dolfinx.cases import bar_problem, impact_problem
+from nitsche_dolfinx.diagnostics import assembled_matrix
 from nitsche_dolfinx.verlet import VerletScheme
 
 COST_COLUMNS = ("h", "ranks", "dofs", "explicit_step_ms", "hybrid_free_step_ms", "step_ratio",
                 "explicit_loop_per_step_ms", "hybrid_loop_per_step_ms", "loop_ratio", "dt",
-                "stable_dt", "runs")  # fmt: skip
+                "stable_dt", "bulk_product_ms", "runs")  # fmt: skip
 #: Steps of each run of the cost mode: the explicit steps of one free fall are cheap, the
 #: hybrid ones dear; both stay before the impact (t = 10).
 EXPLICIT_STEPS, HYBRID_STEPS = 60, 12
@@ -89,12 +93,34 @@ def measure_cost(mesh_size: float, repeat: int) -> dict:
         hybrid = Simulation(hybrid_problem, make_scheme("hybrid"), dt=0.1, t_end=HYBRID_STEPS * 0.1)
         figures.append((*timed_run(explicit), *timed_run(hybrid)))
     e_step, e_loop, h_step, h_loop = np.median(np.array(figures), axis=0)
+    product = bulk_product(explicit_problem, repeat=50)
     return {
         "h": mesh_size, "ranks": comm.size, "dofs": probe.dofs,
         "explicit_step_ms": e_step, "hybrid_free_step_ms": h_step, "step_ratio": e_step / h_step,
         "explicit_loop_per_step_ms": e_loop, "hybrid_loop_per_step_ms": h_loop,
-        "loop_ratio": e_loop / h_loop, "dt": dt, "stable_dt": stable, "runs": repeat,
+        "loop_ratio": e_loop / h_loop, "dt": dt, "stable_dt": stable,
+        "bulk_product_ms": product, "runs": repeat,
     }  # fmt: skip
+
+
+def bulk_product(problem, repeat: int) -> float:
+    """The median time of one product with the bulk stiffness matrix, the largest part of
+    an explicit step, in ms (each the slowest rank's): on two ranks, its speed-up is the
+    ceiling this machine's memory bandwidth sets on the step's."""
+    comm = MPI.COMM_WORLD
+    trial, test = ufl.TrialFunction(problem.V), ufl.TestFunction(problem.V)
+    matrix = assembled_matrix(problem.bulk_stiffness(trial, test))
+    x, y = matrix.createVecs()
+    x.set(1.0)
+    times = []
+    for _ in range(repeat):
+        comm.Barrier()
+        start = time.perf_counter()
+        matrix.mult(x, y)
+        times.append(comm.allreduce(time.perf_counter() - start, op=MPI.MAX))
+    for obj in (matrix, x, y):
+        obj.destroy()
+    return 1e3 * float(np.median(times))
 
 
 def cost(args) -> None:
@@ -128,9 +154,12 @@ def cost(args) -> None:
         for mesh_size in args.mesh_sizes:
             one, two = ([r for r in rows if r["h"] == mesh_size and r["ranks"] == n][0]
                         for n in (1, 2))  # fmt: skip
-            print(f"h = {mesh_size}: {one['dofs']} DOFs, 2 ranks / 1 rank speed-up: step "
-                  f"{one['explicit_step_ms'] / two['explicit_step_ms']:.2f}, loop "
-                  f"{one['explicit_loop_per_step_ms'] / two['explicit_loop_per_step_ms']:.2f}")
+            print(
+                f"h = {mesh_size}: {one['dofs']} DOFs, 2 ranks / 1 rank speed-up: step "
+                f"{one['explicit_step_ms'] / two['explicit_step_ms']:.2f}, loop "
+                f"{one['explicit_loop_per_step_ms'] / two['explicit_loop_per_step_ms']:.2f}, "
+                f"bulk product alone {one['bulk_product_ms'] / two['bulk_product_ms']:.2f}"
+            )
 
 
 def energy_spread(history) -> float:
@@ -173,8 +202,10 @@ def long_runs(args) -> None:
         gc.collect()  # on every rank here: the parallel run's PETSc objects, freed together
         serial = disk(10_000, MPI.COMM_SELF).run(columns=columns)
         if comm.rank == 0:
-            print(f"disk, 10,000 steps, {comm.size} ranks against 1, largest difference over "
-                  "the column's largest value:")
+            print(
+                f"disk, 10,000 steps, {comm.size} ranks against 1, largest difference over "
+                "the column's largest value:"
+            )
             for name in columns:
                 scale = max(np.abs(serial[name]).max(), 1e-300)
                 difference = np.abs(np.asarray(parallel[name]) - serial[name]).max()

@@ -119,7 +119,8 @@ from nitsche_dolfinx.diagnostics import assembled_matrix
 from nitsche_dolfinx.dirichlet import DirichletDofs
 from nitsche_dolfinx.model import ContactProblem
 from nitsche_dolfinx.shapes import ball_mesh, disk_mesh
-from nitsche_dolfinx.verlet import UnstableStep, VerletScheme, contact_stiffness_form
+from nitsche_dolfinx.stable_step import contact_stiffness_form
+from nitsche_dolfinx.verlet import UnstableStep, VerletScheme
 
 #: The history columns a run watches.
 COLUMNS = ["t", "energy", "energy_theta", "contact_force", "contact_area"]
@@ -327,7 +328,7 @@ def linear_limits(problem: ContactProblem, stable_dt: float, max_dense: int) -> 
     """The limits of the two extreme contact states from dense eigenvalues of
     D^-1/2 K D^-1/2 (module docstring); NaN above ``max_dense`` dofs. K and D are
     assembled here as the stepper does: the affine terms, the all-active contact part
-    (:func:`~nitsche_dolfinx.verlet.contact_stiffness_form`), the lumped mass without the
+    (:func:`~nitsche_dolfinx.stable_step.contact_stiffness_form`), the lumped mass without the
     Dirichlet dofs."""
     nan = float("nan")
     with problem.mass_diagonal().localForm() as local:

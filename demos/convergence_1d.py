@@ -57,6 +57,7 @@
 # +
 import argparse
 import os
+import shutil
 from dataclasses import replace
 
 from mpi4py import MPI
@@ -164,8 +165,8 @@ def study(args: argparse.Namespace, methods: dict, steps: dict[int, float]) -> d
     for name, method in methods.items():
         results[name] = []
         for nx in sorted(args.levels):
-            # the fields only when asked for, each level in a folder of its own
-            out = os.path.join(args.out, name, f"N{nx}") if args.output_every else None
+            # each level's history (and its fields when asked for) in a folder of its own
+            out = os.path.join(args.out, name, f"N{nx}")
             row = bar_convergence_level(
                 method, nx, steps[nx], args.t_end, args.gamma0, args.degree, out,
                 args.output_every, scheme_from_arguments(args, method.scheme),
@@ -184,7 +185,9 @@ def study(args: argparse.Namespace, methods: dict, steps: dict[int, float]) -> d
 
 # ### Main
 #
-# The errors go to `OUT/convergence.csv` (full precision) and, with the observed
+# Each level's history goes to `OUT/<method>/N<cells>/history.csv`, the finest
+# level of the first method's also to `OUT/history.csv`. The errors go to
+# `OUT/convergence.csv` (full precision) and, with the observed
 # orders $\log(e_{k-1}/e_k) / \log(h_{k-1}/h_k)$, to `OUT/convergence.md`; the
 # hybrid scheme is checked against the orders the talk reports; the figure has
 # four log-log panels against $h$ with reference slopes $1/2$ and $1$.
@@ -211,6 +214,9 @@ def main(argv: list[str] | None = None) -> None:
     columns = ["method", "N", "h", "tau", *CONVERGENCE_ERRORS, "newton_iterations", "wall_seconds"]
     rows = [row for rows in results.values() for row in rows]
     write_csv(os.path.join(args.out, "convergence.csv"), columns, rows)
+    # OUT/history.csv (the output contract): the finest level of the first method
+    finest = os.path.join(args.out, args.methods[0], f"N{max(args.levels)}", "history.csv")
+    shutil.copyfile(finest, os.path.join(args.out, "history.csv"))
     labels = {name: method.label for name, method in methods.items()}
     table = convergence_table(results, labels)
     with open(os.path.join(args.out, "convergence.md"), "w") as f:

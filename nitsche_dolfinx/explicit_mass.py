@@ -194,6 +194,9 @@ class MasslessNodes:
         self._residual, self._delta = self._stiffness.createVecs()
         self.comm = comm
         self.iterations = 0
+        #: the Jacobians factorised so far (one per change of the contact status)
+        self.factorisations = 0
+        self._factored = None  # the values of C'(u)_cc in the factorised Jacobian
 
     def solve(self, force) -> PETSc.Vec:
         """Newton on the massless rows, from the current ``u``; ``force()`` assembles F(u)
@@ -224,16 +227,29 @@ class MasslessNodes:
         fem_petsc.assemble_matrix(contact, self._jacobian_form)
         contact.assemble()
         self._contact_rows = contact.createSubMatrix(self._rows, self._rows, self._contact_rows)
-        self._stiffness.copy(self._jacobian, structure=PETSc.Mat.Structure.SAME)
-        # C's pattern (the cells on Gamma_C) lies within K's
-        self._jacobian.axpy(1.0, self._contact_rows, structure=PETSc.Mat.Structure.SUBSET)
-        self.ksp.setOperators(self._jacobian)
+        if self._status_changed():  # else the factorisation of the last status serves
+            self._stiffness.copy(self._jacobian, structure=PETSc.Mat.Structure.SAME)
+            # C's pattern (the cells on Gamma_C) lies within K's
+            self._jacobian.axpy(1.0, self._contact_rows, structure=PETSc.Mat.Structure.SUBSET)
+            self.ksp.setOperators(self._jacobian)
+            self.factorisations += 1
         self._residual.array[:] = residual
         self.ksp.solve(self._residual, self._delta)
         delta = self._delta.array_r
         self.u.x.array[self.dofs] += delta
         self.u.x.scatter_forward()
         return float(np.abs(delta).max(initial=0.0))
+
+    def _status_changed(self) -> bool:
+        """Whether C'(u)_cc differs from that of the last factorised Jacobian. C' depends
+        on u only through the contact status of each quadrature point (the force is
+        piecewise affine), so the same status assembles the same values to the bit."""
+        values = self._contact_rows.getValuesCSR()[2]
+        mine = self._factored is None or not np.array_equal(values, self._factored)
+        if self.comm.allreduce(mine, op=MPI.LOR):
+            self._factored = values.copy()
+            return True
+        return False
 
     def destroy(self) -> None:
         if self.active:
