@@ -1,8 +1,8 @@
-"""Values prescribed in time, and the Dirichlet conditions on the dofs of a problem.
+"""The Dirichlet conditions on the dofs of a problem.
 
-A :class:`TimeDependentValue` holds a load or a Dirichlet value, a constant or a function
-of t, in a ``fem.Constant`` that follows the time. A :class:`DirichletCondition` prescribes
-the displacement, or one of its components, on tagged facets
+A :class:`DirichletCondition` prescribes the displacement, or one of its components, on
+tagged facets, with a :class:`~nitsche_dolfinx.problem_values.ProblemValue` (constant, in
+time, or in space and time)
 (:meth:`ContactProblem.add_dirichlet <nitsche_dolfinx.model.ContactProblem.add_dirichlet>`);
 :class:`DirichletDofs` finds its dofs and makes the dolfinx conditions the steppers impose.
 """
@@ -14,52 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from dolfinx import fem
 
-from .keys import LARGEST
+from .problem_values import ProblemValue
 
-__all__ = ["DirichletCondition", "DirichletDofs", "TimeDependentValue", "as_array"]
-
-
-class TimeDependentValue:
-    """A constant or a function of t, held in a ``fem.Constant`` that follows the time."""
-
-    def __init__(self, mesh, value, shape: tuple[int, ...], what: str):
-        self._function = value if callable(value) else None
-        initial = value(0.0) if callable(value) else value
-        self.constant = fem.Constant(mesh, as_array(initial, shape, what))
-        self.shape = shape
-        self.what = what
-
-    @property
-    def time_dependent(self) -> bool:
-        """Whether the value is a function of t."""
-        return self._function is not None
-
-    def value_at(self, t: float) -> np.ndarray:
-        if self._function is None:
-            return np.asarray(self.constant.value)
-        return as_array(self._function(t), self.shape, self.what)
-
-    def set_time(self, t: float) -> None:
-        if self._function is not None:
-            self.constant.value = self.value_at(t)
-
-
-def as_array(value, shape, what) -> np.ndarray:
-    """``value`` as an array of ``shape`` (a number for ``(1,)``), of finite numbers of
-    magnitude at most :data:`~nitsche_dolfinx.keys.LARGEST`; ValueError naming ``what``."""
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be numbers, got {value!r}") from None
-    if array.shape != shape:
-        if array.size != 1 or shape != (1,):
-            raise ValueError(f"{what} must have shape {shape}, got {array.tolist()!r}")
-        array = array.reshape(shape)
-    if not (np.all(np.isfinite(array)) and np.all(np.abs(array) <= LARGEST)):
-        raise ValueError(
-            f"{what} must be finite, of magnitude at most {LARGEST:g}, got {array.tolist()!r}"
-        )
-    return array
+__all__ = ["DirichletCondition", "DirichletDofs"]
 
 
 @dataclass(frozen=True)
@@ -67,11 +24,12 @@ class DirichletCondition:
     """The displacement prescribed on the facets ``tag``: all its components, or only
     ``component`` (a symmetry plane or a roller when the value is zero).
 
-    ``value`` holds a vector (or a scalar for one component) or a function of t.
+    ``value`` holds a vector (or a scalar for one component), a function of t, or a value
+    in space and time.
     """
 
     tag: int
-    value: TimeDependentValue
+    value: ProblemValue
     component: int | None = None
 
     @property
@@ -105,6 +63,17 @@ class DirichletDofs:
         #: Each Dirichlet dof once (sorted).
         self.prescribed, last = np.unique(every, return_index=True)
         self._last = len(every) - 1 - last  # its last place among the conditions' dofs
+        # the values in space: interpolated on the cells of their facets only
+        mesh = problem.mesh
+        mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+        connectivity = mesh.topology.connectivity(fdim, mesh.topology.dim)
+        self._cells = [
+            np.unique(np.concatenate([connectivity.links(f) for f in problem.facets(c.tag)]
+                                     or [np.zeros(0, np.int32)])).astype(np.int32)
+            if c.value.space_dependent else None
+            for _, _, c in self.conditions
+        ]  # fmt: skip
+        self._field = None  # where they are interpolated
 
     def __bool__(self) -> bool:
         return bool(self.conditions)
@@ -116,17 +85,26 @@ class DirichletDofs:
 
     def set_values(self, target: np.ndarray, t: float) -> None:
         """Write the prescribed values at time t into the dof array ``target``."""
-        for _, dofs, condition in self.conditions:
-            values = condition.value.value_at(t)  # one per component, dofs node by node
-            target[dofs] = np.tile(values, len(dofs) // len(values))
+        for index, (_, dofs, _) in enumerate(self.conditions):
+            target[dofs] = self._condition_values(index, t)
 
     def values(self, t: float) -> np.ndarray:
         """The values prescribed at time t at the dofs :attr:`prescribed`."""
-        parts = [
-            np.tile(condition.value.value_at(t), len(dofs) // len(condition.components))
-            for _, dofs, condition in self.conditions
-        ]
+        parts = [self._condition_values(index, t) for index in range(len(self.conditions))]
         return np.concatenate(parts or [np.zeros(0)])[self._last]
+
+    def _condition_values(self, index: int, t: float) -> np.ndarray:
+        """The values of condition ``index`` at time t at its dofs (node by node): a value
+        constant in space repeated, one in space interpolated on the cells of its facets."""
+        _, dofs, condition = self.conditions[index]
+        value = condition.value
+        if not value.space_dependent:
+            values = value.value_at(t)  # one per component
+            return np.tile(values, len(dofs) // len(values))
+        if self._field is None:
+            self._field = fem.Function(self.V)
+        value.interpolate(self._field, t, self._cells[index])
+        return self._field.x.array[dofs]
 
     def boundary_conditions(self, function: fem.Function) -> list:
         """The dolfinx conditions that give the Dirichlet dofs the values of ``function``

@@ -68,12 +68,13 @@ KINDS: dict[str, tuple[str, Callable[[object], bool]]] = {
     ),
     # checked in depth by nitsche_dolfinx.valueforms
     "value in time": (
-        "a vector, a table [[t, value...], ...] or a profile {profile = ...}",
-        lambda v: is_number(v) or isinstance(v, (list, dict)),
+        "a vector (of numbers or expressions of x, y, z, t), a table [[t, value...], ...] "
+        "or a profile {profile = ...}",
+        lambda v: is_number(v) or isinstance(v, (str, list, dict)),
     ),
     "value in x": (
-        "a vector or {constant, gradient, hessian}",
-        lambda v: is_number(v) or isinstance(v, (list, dict)),
+        "a vector (of numbers or expressions of x, y, z) or {constant, gradient, hessian}",
+        lambda v: is_number(v) or isinstance(v, (str, list, dict)),
     ),
     # its keys: nitsche_dolfinx.schema.FACET_SELECTORS
     "selector": ("an inline table { key = value, ... }", lambda v: isinstance(v, dict)),

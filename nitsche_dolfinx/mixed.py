@@ -82,7 +82,8 @@ def _check_mixed(problem: ContactProblem, scheme) -> None:
         raise ParameterError(
             "obstacles", len(problem.contacts), "the mixed method takes exactly one obstacle"
         )
-    if any(c.value.time_dependent or np.any(c.value.value_at(0.0)) for c in problem.dirichlet):
+    if any(c.value.time_dependent or c.value.space_dependent or np.any(c.value.value_at(0.0))
+           for c in problem.dirichlet):  # fmt: skip
         raise ValueError("the mixed method supports homogeneous Dirichlet values only")
 
 

@@ -27,7 +27,8 @@ from mpi4py import MPI
 
 from . import compat
 from .contact import NitscheContact, PenaltyContact
-from .dirichlet import DirichletCondition, TimeDependentValue, as_array
+from .dirichlet import DirichletCondition
+from .expressions import vector_expression
 from .mass import MassMatrix
 from .material import Material, MaterialConstants, sigma
 from .meshes import cell_diameter
@@ -38,6 +39,7 @@ from .parameters import (
     require,
     require_choice,
 )
+from .problem_values import ProblemValue, as_array, has_text
 
 __all__ = ["ContactProblem"]
 
@@ -142,12 +144,24 @@ class ContactProblem:
         self.contacts: list[NitscheContact] = []
         self.contact_tags: list[int] = []
         self.dirichlet: list[DirichletCondition] = []
-        self._body_forces: list[TimeDependentValue] = []
-        self._tractions: list[tuple[int, TimeDependentValue]] = []
+        self._body_forces: list[ProblemValue] = []
+        self._tractions: list[tuple[int, ProblemValue]] = []
         self.initial_displacement = None
         self.initial_velocity = None
+        #: The time t of the problem's data in UFL, a ``fem.Constant`` that the steppers move
+        #: (:meth:`set_time`).
+        self.t = fem.Constant(mesh, 0.0)
+        #: The position x in UFL (``ufl.SpatialCoordinate``), for data in space.
+        self.x = ufl.SpatialCoordinate(mesh)
 
     # -- building the model ------------------------------------------------------------
+
+    def _value(self, value, shape: tuple[int, ...], what: str) -> ProblemValue:
+        """A value of the problem's data (:class:`~nitsche_dolfinx.problem_values.ProblemValue`):
+        a constant, a function of t, a UFL expression of :attr:`x` and :attr:`t`, or a list
+        of numbers and texts of the expression language (:mod:`~nitsche_dolfinx.expressions`:
+        x, y, z, t, + - * / ^, sin, cos, exp, ..., 'a if condition else b')."""
+        return ProblemValue(self.mesh, self.t, value, shape, what)
 
     def facets(self, tag: int) -> np.ndarray:
         """Local indices of the facets tagged ``tag``; raises if no rank has any."""
@@ -166,7 +180,8 @@ class ContactProblem:
 
     def add_dirichlet(self, tag: int, value=0.0, component: int | None = None) -> None:
         """Prescribe the displacement on the facets ``tag``: a vector (or scalar in 1D),
-        or a function of t returning one.
+        a function of t returning one, or a value in space and time (as for
+        :meth:`add_body_force`; interpolated at the facets' nodes).
 
         With ``component=k``, only the component k of the displacement (0 for x, 1 for
         y, 2 for z), the others left free: ``value`` is then a scalar or a function of t
@@ -181,7 +196,7 @@ class ContactProblem:
                 component,
                 "the displacement of a 1D mesh has one component, 0",
             )
-            value = TimeDependentValue(self.mesh, value, (self.gdim,), "Dirichlet value")
+            value = self._value(value, (self.gdim,), "Dirichlet value")
             self.dirichlet.append(DirichletCondition(tag, value))
             return
         require(
@@ -192,19 +207,20 @@ class ContactProblem:
             component,
             f"the displacement has the components 0 to {self.gdim - 1}",
         )
-        value = TimeDependentValue(self.mesh, value, (1,), "Dirichlet value of a component")
+        value = self._value(value, (1,), "Dirichlet value of a component")
         self.dirichlet.append(DirichletCondition(tag, value, int(component)))
 
     def add_body_force(self, value) -> None:
-        """Add a volume force f: a vector, or a function of t returning one."""
-        self._body_forces.append(TimeDependentValue(self.mesh, value, (self.gdim,), "body force"))
+        """Add a volume force f: a vector, a function of t returning one, or a value in space
+        and time (a UFL vector of :attr:`x` and :attr:`t`, or a list of numbers and
+        expression texts such as ``[0, "-9.81 * (1 + x)"]``: :meth:`_value`)."""
+        self._body_forces.append(self._value(value, (self.gdim,), "body force"))
 
     def add_traction(self, tag: int, value) -> None:
-        """Add a Neumann traction g_N on the facets ``tag``: a vector, or a function of t."""
+        """Add a Neumann traction g_N on the facets ``tag``: a vector, a function of t, or a
+        value in space and time (as for :meth:`add_body_force`)."""
         self.facets(tag)
-        self._tractions.append(
-            (tag, TimeDependentValue(self.mesh, value, (self.gdim,), "traction"))
-        )
+        self._tractions.append((tag, self._value(value, (self.gdim,), "traction")))
 
     def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
@@ -308,11 +324,21 @@ class ContactProblem:
         """Initial displacement u0 and velocity v0 (zero when omitted).
 
         Each is a constant vector, a function of the coordinates ``x`` (shape (3, N))
-        returning the values (shape (gdim, N), or (N,) in 1D), or a Function on the
-        displacement space.
+        returning the values (shape (gdim, N), or (N,) in 1D), a Function on the
+        displacement space, a UFL vector of :attr:`x`, or a list of numbers and expression
+        texts of x, y, z (:mod:`~nitsche_dolfinx.expressions`; no t), e.g.
+        ``["0.1 * sin(pi * x)", 0]``.
         """
-        self.initial_displacement = displacement
-        self.initial_velocity = velocity
+        self.initial_displacement = self._field(displacement, "initial displacement")
+        self.initial_velocity = self._field(velocity, "initial velocity")
+
+    def _field(self, value, what: str):
+        """An initial field as :func:`~nitsche_dolfinx.stepping.interpolate_initial` takes
+        it: expression texts made UFL of x (refused with t)."""
+        if not has_text(value):
+            return value
+        texts = [value] if isinstance(value, str) else list(value)
+        return vector_expression(texts, self.mesh, None, name=what)
 
     # -- the terms of the weak form, used by the time schemes --------------------------
 
@@ -397,6 +423,11 @@ class ContactProblem:
         return not any(value.time_dependent for value in values)
 
     @property
+    def loads_in_time(self) -> bool:
+        """Whether a body force or a traction depends on t."""
+        return any(v.time_dependent for v in [*self._body_forces, *(t for _, t in self._tractions)])
+
+    @property
     def has_tractions(self) -> bool:
         """Whether a traction was added."""
         return bool(self._tractions)
@@ -406,15 +437,24 @@ class ContactProblem:
         zero = fem.Constant(self.mesh, np.zeros(self.gdim))
         form = ufl.inner(zero, v) * self.dx
         for force in self._body_forces:
-            form = form + ufl.inner(force.constant, v) * self.dx
+            form = form + ufl.inner(force.ufl, v) * self.dx
         return self._with_tractions(form, v)
 
     def body_force(self) -> np.ndarray:
-        """The sum of the body forces at the current time (zero without any)."""
+        """The sum of the body forces at the current time (zero without any), when they are
+        constant in space (:attr:`body_force_in_space`)."""
         total = np.zeros(self.gdim)
         for force in self._body_forces:
-            total += np.asarray(force.constant.value)
+            total += force.value_at(float(self.t.value))
         return total
+
+    @property
+    def body_force_in_space(self):
+        """The sum of the body forces as a UFL vector when one of them may vary in space
+        (None otherwise: :meth:`body_force`)."""
+        if not any(force.space_dependent for force in self._body_forces):
+            return None
+        return sum((force.ufl for force in self._body_forces[1:]), self._body_forces[0].ufl)
 
     def traction_load(self, v):
         """The tractions' part of L(t)(v): int g_N . v over their boundaries."""
@@ -424,11 +464,12 @@ class ContactProblem:
     def _with_tractions(self, form, v):
         """``form`` + int g_N . v over each traction's boundary, at the current time."""
         for tag, traction in self._tractions:
-            form = form + ufl.inner(traction.constant, v) * self.ds(tag)
+            form = form + ufl.inner(traction.ufl, v) * self.ds(tag)
         return form
 
     def set_time(self, t: float) -> None:
-        """Move the time-dependent loads to time ``t``."""
+        """Move the data to time ``t``: :attr:`t` and the functions of t."""
+        self.t.value = t
         for force in self._body_forces:
             force.set_time(t)
         for _, traction in self._tractions:

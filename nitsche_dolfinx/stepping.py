@@ -15,10 +15,11 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
-from .dirichlet import as_array
+from . import compat
 from .linear_solvers import LinearSolver
 from .model import ContactProblem
 from .parameters import ParameterError, require
+from .problem_values import as_array
 from .solver import SNESSolver, SolverError
 
 __all__ = [
@@ -129,12 +130,20 @@ def massless_velocity(massless, u, u1, v1, a1, dt) -> None:
 
 
 def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
-    """Set ``target`` to an initial value: None (zero), a Function, a function of the
-    coordinates returning (gdim, N) or (N,) values, or a constant vector."""
+    """Set ``target`` to an initial value: None (zero), a Function, a UFL vector of the
+    position, a function of the coordinates returning (gdim, N) or (N,) values, or a
+    constant vector."""
     if value is None:
         target.x.array[:] = 0.0
     elif isinstance(value, fem.Function):
         target.interpolate(value)
+    elif isinstance(value, ufl.core.expr.Expr):  # of the position x
+        if value.ufl_shape == ():
+            value = ufl.as_vector([value])
+        if value.ufl_shape != (gdim,):
+            raise ValueError(f"initial {target.name} must have shape ({gdim},), got a UFL "
+                             f"value of {value.ufl_shape}")  # fmt: skip
+        target.interpolate(compat.expression(value, target.function_space))
     elif callable(value):
         target.interpolate(lambda x: np.asarray(value(x), dtype=float).reshape(gdim, -1))
     else:

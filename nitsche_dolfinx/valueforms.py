@@ -10,7 +10,14 @@ A value in time (loads, Dirichlet values) is one of
   ``{ profile = "sine", amplitude = [0.0, 1.0], frequency = 0.5, phase = 0.0 }``
   (amplitude sin(2 pi frequency t + phase)).
 
-A value in space (initial displacement and velocity) is a constant, or a polynomial of
+A value in time may also vary in space: a vector whose components are numbers or texts of
+the expression language of :mod:`~nitsche_dolfinx.expressions` (x, y, z, t, numbers,
+``+ - * / ^``, sin, cos, tan, exp, log, sqrt, abs, min, max, pi, e and ``a if condition
+else b``), e.g. ``["0", "-9.81 * (1 + 0.1 * sin(pi * x))"]``, or one text for one component;
+the text is parsed, never evaluated as Python.
+
+A value in space (initial displacement and velocity) is a constant, a vector of numbers and
+expression texts of x, y, z (no t), or a polynomial of
 degree at most 2 in x, ``{ constant = c, gradient = G, hessian = H }`` (each optional):
 u_i(x) = c_i + G_ij x_j + 1/2 H_ijk x_j x_k. The bar's u0 = 1/2 - x/2 is
 ``{ constant = [0.5], gradient = [[-0.5]] }``.
@@ -28,7 +35,10 @@ import math
 
 import numpy as np
 
+from .expressions import parse_expression
 from .keys import LARGEST, is_number
+from .parameters import ParameterError
+from .problem_values import has_text
 
 __all__ = [
     "FIELD_KEYS",
@@ -136,6 +146,8 @@ def _vector(value, what: str = "a number or a list of numbers") -> list[float]:
 
 def check_time_value(value) -> int:
     """Check a value in time (see the module docstring); its number of components."""
+    if has_text(value):
+        return _check_texts(value, time=True)
     if isinstance(value, dict):
         return _check_profile(value)
     if isinstance(value, list) and value and all(isinstance(row, list) for row in value):
@@ -174,6 +186,8 @@ def _check_profile(value: dict) -> int:
 
 def check_field_value(value) -> int:
     """Check a value in space (see the module docstring); its number of components."""
+    if has_text(value):
+        return _check_texts(value, time=False)
     if not isinstance(value, dict):
         return len(_vector(value, "a number, a list of numbers or {constant, gradient, hessian}"))
     unknown = [key for key in value if key not in FIELD_KEYS]
@@ -196,18 +210,39 @@ def check_field_value(value) -> int:
     return sizes.pop()
 
 
+def _check_texts(value, time: bool) -> int:
+    """Check a vector of numbers and expression texts (or one text); its number of
+    components. The names are checked for three dimensions here, and against the mesh's
+    when the problem is built; ``t`` only in a value in time."""
+    items = [value] if isinstance(value, str) else value
+    for index, item in enumerate(items):
+        name = f"component {index}" if len(items) > 1 else "the expression"
+        try:
+            tree = parse_expression(item, name=name, gdim=3)
+        except ParameterError as error:
+            raise ValueError(f"{name}: {error.requirement}") from None
+        if tree.uses_time and not time:
+            raise ValueError(f"{name}: 't' (time) is not available in an initial value")
+    return len(items)
+
+
 def time_value(value):
     """A checked value in time as a constant list or a function of t."""
     if isinstance(value, dict):
         cls, _ = PROFILES[value["profile"]]
         return cls(**{key: v for key, v in value.items() if key != "profile"})
+    if has_text(value):  # made UFL by the problem (problem_values.ProblemValue)
+        return value
     if isinstance(value, list) and value and isinstance(value[0], list):
         return PiecewiseLinear(value)
     return _vector(value)
 
 
 def field_value(value, size: int):
-    """A checked value in space as a constant list or a function of x."""
+    """A checked value in space as a constant list or a function of x (texts as they are:
+    the problem makes them UFL)."""
+    if has_text(value):
+        return value
     if isinstance(value, dict):
         return PolynomialField(size, **value)
     return _vector(value)

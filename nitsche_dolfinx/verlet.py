@@ -167,6 +167,7 @@ class ExplicitStepper(TimeLevels):
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
         self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
+        self._load_field = None  # a body force in space: its interpolant (:meth:`_body_load`)
         affine = self._affine()
         self._massless = MasslessNodes(problem, self.u, forces, affine, fixed)
         #: The estimated stable step (:func:`~nitsche_dolfinx.stable_step.stable_step`)
@@ -241,7 +242,7 @@ class ExplicitStepper(TimeLevels):
             self._boundary.mult(u, self._work)
             vector.axpy(-1.0, self._work)
         if self._unit_loads is not None:
-            vector.array += self.problem.body_force() @ self._unit_loads
+            vector.array += self._body_load()
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         return vector, self._product
 
@@ -259,6 +260,22 @@ class ExplicitStepper(TimeLevels):
         n = self._product.getLocalSize()
         local = self.u.x.array[:n] @ self._product.array_r
         return float(sum_over_ranks(self.comm, [local])[0]) / 2
+
+    def _body_load(self) -> np.ndarray:
+        """M f / rho at the current time (owned rows): the body force lumped as the mass is;
+        f constant in space by :meth:`_lumped_unit_loads`, else its interpolant's."""
+        f = self.problem.body_force_in_space
+        if f is None:
+            return self.problem.body_force() @ self._unit_loads
+        if self._load_field is None or self.problem.loads_in_time:
+            if self._load_field is None:
+                self._load_field = fem.Function(self.problem.V)
+                self._load_expression = compat.expression(f, self.problem.V)
+            self._load_field.interpolate(self._load_expression)
+            field = compat.petsc_vector(self._load_field)
+            self._mass.mult(field, self._work)
+            self._load = self._work.array_r / float(self.problem.material.rho)
+        return self._load
 
     def _lumped_unit_loads(self) -> np.ndarray:
         """M e_k / rho for each component k (owned rows): the body force f, constant in
@@ -331,8 +348,14 @@ class ExplicitStepper(TimeLevels):
     def _potential(self) -> float:
         """-L(t)(u), the body force lumped as the steps take it (M f / rho . u: the sums
         of M u by component, dotted with f), and the tractions."""
-        moments = self.diagnostics.moments
-        body = -self.problem.body_force() @ moments.sums(self.u) / float(self.problem.material.rho)
+        if self.problem.body_force_in_space is not None:
+            n = self._product.getLocalSize()
+            local = -(self._body_load() @ self.u.x.array[:n])
+            body = sum_over_ranks(self.comm, [local])[0]
+        else:
+            moments = self.diagnostics.moments
+            rho = float(self.problem.material.rho)
+            body = -self.problem.body_force() @ moments.sums(self.u) / rho
         if self._tractions is None:
             return float(body)
         return float(body + sum_over_ranks(self.comm, [fem.assemble_scalar(self._tractions)])[0])

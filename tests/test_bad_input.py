@@ -73,7 +73,7 @@ API = {
     ),
     "body-force-string": (
         lambda: ring_with(add_body_force=(["0", "down"],)),
-        "body force must be numbers, got ['0', 'down']",
+        "body force[1]='down': unknown name 'down' (allowed: x, y, t, pi, e)",
     ),
     "body-force-huge": (
         lambda: ring_with(add_body_force=([0.0, -1e300],)),
@@ -471,8 +471,16 @@ TOML = {
         "must have rows [t, value...] of one length",
     ),
     "load-text": (
+        {"value = [0.0, -1.0]": 'value = [0.0, "-9.81 * time"]'},
+        "[body_force] value = [0.0, '-9.81 * time']: component 1: unknown name 'time'",
+    ),
+    "load-text-call": (
+        {"value = [0.0, -1.0]": 'value = [0.0, "open(1)"]'},
+        "component 1: function 'open' is not in the list",
+    ),
+    "load-text-scalar": (
         {"value = [0.0, -1.0]": 'value = "-9.81 * t"'},
-        "[body_force] value must be a vector, a table [[t, value...], ...] or a profile",
+        "[body_force] value = '-9.81 * t': has 1 component, the mesh is 2D",
     ),
     "profile-unknown": (
         {"value = [0.0, -1.0]": 'value = { profile = "square", value = [0.0, -1.0] }'},
