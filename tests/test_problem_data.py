@@ -60,6 +60,22 @@ def test_force_in_space_and_time_gives_its_impulse(tmp_path, scheme, dt, mass):
     np.testing.assert_allclose(history["momentum"], t**2 / 4, rtol=0, atol=1e-13)
 
 
+def test_toml_text_and_api_ufl_give_the_same_history(tmp_path):
+    """The free bar pushed by f = x t, from the TOML file's text and from the API's UFL
+    (problem.x, problem.t): the same history to 1e-12 of each column's largest value."""
+    text = FREE_BAR.format(scheme="hybrid", dt=0.1, force='["x * t"]', mass="consistent")
+    config, simulation = configured(tmp_path, text)
+    columns = ["t", "energy", "kinetic", "elastic", "potential", "momentum"]
+    theirs = simulation.run(columns=columns)
+    mesh, tags = bar_mesh(10)
+    problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.0, rho=1.0))
+    problem.add_body_force(ufl.as_vector([problem.x[0] * problem.t]))
+    ours = Simulation(problem, make_scheme("hybrid"), dt=0.1, t_end=0.6).run(columns=columns)
+    for name in columns:
+        their, our = np.asarray(theirs[name]), np.asarray(ours[name])
+        assert np.abs(our - their).max() <= 1e-12 * max(np.abs(their).max(), 1e-300), name
+
+
 @pytest.mark.mpi
 def test_text_and_ufl_give_the_same_history():
     """The same data as texts and as UFL of problem.x and problem.t: a block on the plane
