@@ -54,6 +54,7 @@ __all__ = [
     "MAX_TABLE_POINTS",
     "ExpressionTree",
     "check_table",
+    "has_text",
     "expression",
     "parse_expression",
     "parse_vector",
@@ -384,6 +385,13 @@ def table_expression(points: Sequence[float], values: Sequence[float], variable,
         return ufl.conditional(below, pieces(low, middle), pieces(middle + 1, high))
 
     return pieces(0, len(points))
+
+
+def has_text(value) -> bool:
+    """Whether ``value`` is a text or a list holding a text (the expression language)."""
+    if isinstance(value, str):
+        return True
+    return isinstance(value, (list, tuple)) and any(isinstance(item, str) for item in value)
 
 
 # -- checks of the text ------------------------------------------------------------------

@@ -28,7 +28,7 @@ from mpi4py import MPI
 from . import compat
 from .contact import NitscheContact, PenaltyContact
 from .dirichlet import DirichletCondition
-from .expressions import vector_expression
+from .expressions import has_text, vector_expression
 from .mass import MassMatrix
 from .material import Material, MaterialConstants, sigma
 from .meshes import cell_diameter
@@ -39,7 +39,7 @@ from .parameters import (
     require,
     require_choice,
 )
-from .problem_values import ProblemValue, as_array, has_text
+from .problem_values import ProblemValue, as_array
 
 __all__ = ["ContactProblem"]
 

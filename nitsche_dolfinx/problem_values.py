@@ -24,10 +24,10 @@ from dolfinx import fem
 from ufl.algorithms.analysis import extract_type
 
 from . import compat
-from .expressions import expression, vector_expression
+from .expressions import expression, has_text, vector_expression
 from .keys import LARGEST
 
-__all__ = ["ProblemValue", "as_array", "has_text"]
+__all__ = ["ProblemValue", "as_array"]
 
 
 class ProblemValue:
@@ -106,13 +106,6 @@ class ProblemValue:
         finally:
             self._time.value = before
             self.set_time(before)
-
-
-def has_text(value) -> bool:
-    """Whether ``value`` is a text or a list holding a text (the expression language)."""
-    if isinstance(value, str):
-        return True
-    return isinstance(value, (list, tuple)) and any(isinstance(item, str) for item in value)
 
 
 def _texts(texts, mesh, time, shape, what):

@@ -35,10 +35,9 @@ import math
 
 import numpy as np
 
-from .expressions import parse_expression
+from .expressions import has_text, parse_expression
 from .keys import LARGEST, is_number
 from .parameters import ParameterError
-from .problem_values import has_text
 
 __all__ = [
     "FIELD_KEYS",
