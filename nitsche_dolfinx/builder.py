@@ -30,7 +30,7 @@ from .meshes import load_mesh
 from .model import ContactProblem
 from .obstacles import OBSTACLES
 from .parameter_table import PARAMETERS
-from .parameters import Discretisation, NitscheParameters, TimeStepping
+from .parameters import Discretisation, NitscheParameters, ParameterError, TimeStepping
 from .schema import FACET_SELECTORS, SCHEMA
 from .schemes import TimeScheme, make_scheme
 from .simulation import Simulation
@@ -62,10 +62,13 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     mesh, cell_tags, facet_tags = _mesh(config, comm, source)
     _check_dimensions(config, mesh.geometry.dim, source)
     facet_tags = _tag_facets(mesh, facet_tags, checked.selectors, config, source)
+    for index, region in enumerate(config.get("region", [])):
+        _cells(cell_tags, region["tag"], f"[[region]] #{index + 1}", "tag", source, comm)
     with reported_at("[nitsche]", source):
         problem = ContactProblem(
-            mesh, facet_tags, checked.material, **_keywords(config, "ContactProblem")
-        )
+            mesh, facet_tags, checked.material, **_keywords(config, "ContactProblem"),
+            cell_tags=cell_tags,
+        )  # fmt: skip
     contacts = _add_terms(problem, config, checked.obstacles, cell_tags, source)
     with reported_at("[solver]", source):
         simulation = Simulation(
@@ -93,7 +96,7 @@ def _keywords(config: dict, owner: str) -> dict:
 class _Checked(NamedTuple):
     """What the configuration makes before the mesh (every value checked)."""
 
-    material: Material
+    material: Material | dict
     scheme: TimeScheme
     obstacles: list
     selectors: list[list]
@@ -110,7 +113,8 @@ def _checked_values(config: dict, source: str) -> _Checked:
         TimeStepping(run["dt"], run["t_end"], run["max_step_cuts"])
     with reported_at("[nitsche]", source):
         nitsche = NitscheParameters(**{f.name: problem[f.name] for f in fields(NitscheParameters)})
-        nitsche.check_scale(material.E)
+        for each in material.values() if isinstance(material, dict) else [material]:
+            nitsche.check_scale(each.E)
     with reported_at("[mesh]", source):
         Discretisation(**{f.name: problem[f.name] for f in fields(Discretisation)})
     obstacles = _obstacles(config, source)
@@ -119,13 +123,28 @@ def _checked_values(config: dict, source: str) -> _Checked:
     return _Checked(material, scheme, obstacles, selectors)
 
 
-def _material(config: dict, source: str) -> Material:
-    values = config["material"]
+def _material(config: dict, source: str) -> Material | dict:
+    """[material], or with [[region]] tables a dict {cell tag: Material, None: [material]}."""
     with reported_at("[material]", source):
-        if "E" in values:
-            return Material(**_keywords(config, "Material"))
-        return Material.from_lame(**_keywords(config, "Material.from_lame"),
-                                  rho=setting(config, "material", "rho"))  # fmt: skip
+        material = _material_of(config["material"])
+    if not config.get("region"):
+        return material
+    materials = {None: material}
+    for index, region in enumerate(config["region"]):
+        try:
+            materials[region["tag"]] = _material_of({"rho": material.rho, **region})
+        except ParameterError as error:  # named in its own table, not [material]
+            where = f"[[region]] #{index + 1}"
+            raise bad(source, where, error.name, error.value, error.requirement) from None
+    return materials
+
+
+def _material_of(values: dict) -> Material:
+    """The material of a table of [material]'s keys (E and nu, or lmbda and mu; rho)."""
+    rho = values.get("rho", SCHEMA["material"].keys["rho"].default)
+    if "E" in values:
+        return Material(E=values["E"], nu=values["nu"], rho=rho)
+    return Material.from_lame(values["lmbda"], values["mu"], rho=rho)
 
 
 def _obstacles(config: dict, source: str) -> list:
@@ -162,10 +181,10 @@ def _mesh(config: dict, comm, source: str):
     with reported_at("[mesh]", source):
         if "generator" in table:
             return generate_mesh(table["generator"], table, comm)
-        mesh, facet_tags = load_mesh(
-            table["file"], table.get("gdim"), comm, facet_tags_required=not config.get("facet_tag")
-        )
-        return mesh, None, facet_tags
+        return load_mesh(
+            table["file"], table.get("gdim"), comm,
+            facet_tags_required=not config.get("facet_tag"), with_cell_tags=True,
+        )  # fmt: skip
 
 
 def _tag_facets(mesh, facet_tags, selectors: list[list], config: dict, source: str):
@@ -287,7 +306,14 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
 def _cells(cell_tags, tag: int, where: str, key: str, source: str, comm) -> None:
     """Refuse a cell tag that the mesh does not have."""
     if cell_tags is None:
-        raise bad(source, where, key, tag, "the mesh has no cell tags (the two-body meshes do)")
+        raise bad(
+            source,
+            where,
+            key,
+            tag,
+            "the mesh has no cell tags (the two-body meshes and "
+            "the physical groups of cells of a .msh file do)",
+        )
     if comm.allreduce(len(cell_tags.find(tag)), op=MPI.SUM) == 0:
         present = sorted(set(comm.allreduce(np.unique(cell_tags.values).tolist(), op=MPI.SUM)))
         raise bad(source, where, key, tag, f"not a cell tag of the mesh (it has {present})")

@@ -184,6 +184,12 @@ def validate(config: dict, source: str = "config") -> None:
         else:
             _check_table(value, table, f"{source}: [{name}]")
     _check_material(config["material"], source)
+    tags = [region["tag"] for region in config.get("region", [])]
+    for index, region in enumerate(config.get("region", [])):
+        _check_material(region, source, f"[[region]] #{index + 1} (tag = {region['tag']})")
+        if tags.count(region["tag"]) > 1:
+            raise ConfigError(f"{source}: [[region]] #{index + 1}: tag = {region['tag']} "
+                              "is given a material twice")  # fmt: skip
     _check_scheme_keys(config["scheme"], source)
     _check_mesh(config["mesh"], source)
     for index, table in enumerate(config.get("facet_tag", [])):
@@ -232,13 +238,13 @@ def _check_petsc(petsc, source: str) -> None:
             )
 
 
-def _check_material(material: dict, source: str) -> None:
+def _check_material(material: dict, source: str, where: str = "[material]") -> None:
     if not ({"E", "nu"} <= material.keys() or {"lmbda", "mu"} <= material.keys()):
-        raise ConfigError(f"{source}: [material] needs E and nu, or lmbda and mu")
+        raise ConfigError(f"{source}: {where} needs E and nu, or lmbda and mu")
     both = sorted(material.keys() & {"E", "nu"}), sorted(material.keys() & {"lmbda", "mu"})
     if both[0] and both[1]:
         raise ConfigError(
-            f"{source}: [material] gives {' and '.join(both[0])} with {' and '.join(both[1])}: "
+            f"{source}: {where} gives {' and '.join(both[0])} with {' and '.join(both[1])}: "
             "give E and nu, or lmbda and mu"
         )
 

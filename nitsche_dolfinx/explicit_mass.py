@@ -25,6 +25,7 @@ from petsc4py import PETSc
 
 from . import compat
 from .linear_solvers import direct_options, has_mumps
+from .mass import density
 from .solver import SolverError
 
 __all__ = ["ConsistentMass", "DiagonalMass", "MasslessNodes", "MasslessNotConverged"]
@@ -80,9 +81,9 @@ class ConsistentMass:
     and columns of the ``fixed`` dofs (local, Dirichlet) replaced by the identity, so that
     their acceleration is zero."""
 
-    def __init__(self, V, rho: float, fixed: np.ndarray):
+    def __init__(self, V, rho, fixed: np.ndarray):
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-        form = fem.form(fem.Constant(V.mesh, float(rho)) * ufl.inner(u, v) * ufl.dx)
+        form = fem.form(density(V.mesh, rho) * ufl.inner(u, v) * ufl.dx)
         self.matrix = compat.create_matrix(form)
         fem_petsc.assemble_matrix(self.matrix, form)
         self.matrix.assemble()

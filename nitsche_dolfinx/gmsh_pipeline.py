@@ -283,8 +283,10 @@ def read_msh(
     gdim: int | None = None,
     facet_tags_required: bool = True,
     contact: Sequence[int] = (),
+    with_cell_tags: bool = False,
 ):
-    """A gmsh ``.msh`` file, read on rank 0 and distributed: ``(mesh, facet_tags)``.
+    """A gmsh ``.msh`` file, read on rank 0 and distributed: ``(mesh, facet_tags)``, or
+    ``(mesh, cell_tags, facet_tags)`` ``with_cell_tags``.
 
     The physical groups of the highest dimension make the cells, those of one dimension
     less the facet tags (their tag is the physical group's number): None without any,
@@ -308,10 +310,10 @@ def read_msh(
         if len(gmsh.model.mesh.getNodes()[0]) and _node_tags_have_gaps(gmsh.model):
             gmsh.model.mesh.renumberNodes()  # dolfinx takes the nodes as tags 1 to N
 
-    mesh, _, facet_tags = distribute(
+    mesh, cell_tags, facet_tags = distribute(
         merge, comm, gdim, contact, what, facet_tags_required=facet_tags_required
     )
-    return mesh, facet_tags
+    return (mesh, cell_tags, facet_tags) if with_cell_tags else (mesh, facet_tags)
 
 
 def _node_tags_have_gaps(model) -> bool:

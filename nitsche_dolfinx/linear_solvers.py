@@ -151,10 +151,10 @@ def _smallest_cell(problem) -> float:
 
 def courant_number(problem, dt: float) -> float:
     """c tau / h_min: the time step over the time a pressure wave, of speed
-    c = sqrt((lambda + 2 mu) / rho), takes to cross the smallest cell (h_T its largest
-    vertex distance; collective). Below about 1 the mass dominates the step's Jacobian."""
-    material = problem.material
-    speed = math.sqrt((material.lmbda + 2.0 * material.mu) / material.rho)
+    c = sqrt((lambda + 2 mu) / rho) (the fastest material's), takes to cross the smallest
+    cell (h_T its largest vertex distance; collective). Below about 1 the mass dominates
+    the step's Jacobian."""
+    speed = max(math.sqrt((m.lmbda + 2.0 * m.mu) / m.rho) for m in problem.materials)
     return speed * float(dt) / _smallest_cell(problem)
 
 
@@ -168,9 +168,12 @@ def contact_stiffness(problem, dt: float) -> float:
         return 0.0
     h_min = _smallest_cell(problem)
     gamma_h = float(np.asarray(problem.gamma0.value)) * h_min
-    if problem.gamma0_scaling == "E":
-        gamma_h /= problem.material.E
-    return float(dt) ** 2 / (problem.material.rho * gamma_h * h_min)
+
+    def stiffness(material) -> float:  # the largest over the materials
+        scaled = gamma_h / material.E if problem.gamma0_scaling == "E" else gamma_h
+        return float(dt) ** 2 / (material.rho * scaled * h_min)
+
+    return max(stiffness(material) for material in problem.materials)
 
 
 def choose_linear_solver(problem, dt: float) -> str:

@@ -32,7 +32,15 @@ def _accumulate(vec: PETSc.Vec) -> None:
     vec.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
 
 
-def lumped_mass(V, rho: float) -> PETSc.Vec:
+def density(mesh, rho):
+    """The density as the forms take it: a number becomes a ``fem.Constant`` (one compiled
+    form for every value); a UFL field (one value per cell: several materials) stays."""
+    if isinstance(rho, ufl.core.expr.Expr):
+        return rho
+    return fem.Constant(mesh, float(rho))
+
+
+def lumped_mass(V, rho) -> PETSc.Vec:
     """The lumped mass on the vector space ``V``: the row sums of the consistent mass matrix
     ``int rho u . v`` for P1; for P2, whose row sums are zero or negative at the vertices
     of triangles and tetrahedra, the diagonal of the consistent mass scaled to the body's
@@ -41,7 +49,7 @@ def lumped_mass(V, rho: float) -> PETSc.Vec:
     if compat.element_degree(V) > 1:
         return _hrz_mass(V, rho)
     ones = fem.Constant(V.mesh, np.ones(V.mesh.geometry.dim))
-    rho = fem.Constant(V.mesh, float(rho))  # a constant: one compiled form for every rho
+    rho = density(V.mesh, rho)
     mass = compat.create_vector(V)
     with mass.localForm() as local:
         local.set(0.0)
@@ -50,36 +58,37 @@ def lumped_mass(V, rho: float) -> PETSc.Vec:
     return mass
 
 
-def _hrz_mass(V, rho: float) -> PETSc.Vec:
-    """The diagonal of the consistent mass matrix times body mass / its sum."""
+def _hrz_mass(V, rho) -> PETSc.Vec:
+    """The diagonal of the consistent mass matrix times body mass / its sum (with several
+    materials each cell's diagonal scales with its density, so the one factor is still
+    every cell's)."""
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    rho_c = fem.Constant(V.mesh, float(rho))
-    matrix = fem_petsc.assemble_matrix(fem.form(rho_c * ufl.inner(u, v) * ufl.dx))
+    rho = density(V.mesh, rho)
+    matrix = fem_petsc.assemble_matrix(fem.form(rho * ufl.inner(u, v) * ufl.dx))
     matrix.assemble()
     mass = compat.create_vector(V)
     with mass.localForm() as local:
         local.set(0.0)
     matrix.getDiagonal(mass)
     matrix.destroy()
-    one = fem.Constant(V.mesh, 1.0)
-    volume = V.mesh.comm.allreduce(fem.assemble_scalar(fem.form(one * ufl.dx)), op=MPI.SUM)
+    body = V.mesh.comm.allreduce(fem.assemble_scalar(fem.form(rho * ufl.dx)), op=MPI.SUM)
     bs = V.dofmap.index_map_bs
-    mass.scale(float(rho) * volume * bs / mass.sum())  # the owned entries
+    mass.scale(body * bs / mass.sum())  # the owned entries
     mass.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     return mass
 
 
-def redistributed_mass(V, rho: float, contact_facets) -> PETSc.Vec:
+def redistributed_mass(V, rho, contact_facets) -> PETSc.Vec:
     """The lumped mass with the mass of the contact nodes moved to their neighbours (P1).
 
-    Each cell's share of the mass of a contact node, ``rho |T| / (d + 1)``, goes in
+    Each cell's share of the mass of a contact node, ``rho_T |T| / (d + 1)``, goes in
     equal parts to the cell's nodes that are not on Gamma_C (a cell whose nodes are
     all on Gamma_C keeps it). The moves are summed over the owned cells of each
     rank, so the result does not depend on the number of ranks.
 
     Args:
         V: The (P1, vector) displacement space.
-        rho: The density.
+        rho: The density: a number, or a UFL field (one value per cell).
         contact_facets: Local indices of the facets of Gamma_C.
     """
     mesh = V.mesh
@@ -99,17 +108,18 @@ def redistributed_mass(V, rho: float, contact_facets) -> PETSc.Vec:
         contact_node = local.array.reshape(-1, bs)[:, 0] > 0
 
     D = compat.function_space(mesh, "DG", 0)
-    cell_volume = fem.Function(D)
+    cell_mass = fem.Function(D)  # rho_T |T|
     fem_petsc.assemble_vector(
-        compat.petsc_vector(cell_volume), fem.form(ufl.TestFunction(D) * ufl.dx)
+        compat.petsc_vector(cell_mass),
+        fem.form(density(mesh, rho) * ufl.TestFunction(D) * ufl.dx),
     )
     num_owned = mesh.topology.index_map(tdim).size_local
     cells = compat.dofmap_array(V)[:num_owned]  # blocked dofs = nodes
-    volumes = cell_volume.x.array[compat.dofmap_array(D)[:num_owned, 0]]
+    masses = cell_mass.x.array[compat.dofmap_array(D)[:num_owned, 0]]
     contact = contact_node[cells]
     free = ~contact
     moving = contact.any(axis=1) & free.any(axis=1)
-    share = rho * volumes[moving] / cells.shape[1]  # one node's mass in the cell
+    share = masses[moving] / cells.shape[1]  # one node's mass in the cell
     leaving = contact[moving].sum(axis=1)
     arriving = free[moving].sum(axis=1)
     change = np.zeros(len(nodal))
@@ -134,14 +144,14 @@ class MassMatrix:
     Args:
         kind: One of :data:`~nitsche_dolfinx.parameters.MASS_MATRICES`.
         V: The displacement space.
-        rho: The density.
+        rho: The density: a number, or a UFL field (one value per cell).
         contact_facets: A function giving the local facets of Gamma_C (None: no contact)
             when the redistributed mass is first made (the obstacles are added after the
             problem).
     """
 
-    def __init__(self, kind: str, V, rho: float, contact_facets):
-        self.kind, self.V, self.rho = kind, V, float(rho)
+    def __init__(self, kind: str, V, rho, contact_facets):
+        self.kind, self.V, self.rho = kind, V, rho
         self._contact_facets = contact_facets
         self._diagonal = None
 
@@ -163,6 +173,11 @@ class MassMatrix:
         if facets is None:
             raise ValueError("mass='redistributed' needs an obstacle: add one first")
         return redistributed_mass(V, self.rho, facets)
+
+    def of_unit_density(self) -> MassMatrix:
+        """The same kind of mass with density 1 (what lumps a load per unit volume as this
+        mass is lumped: M f / rho with one density, with several)."""
+        return MassMatrix(self.kind, self.V, 1.0, self._contact_facets)
 
     def massless_dofs(self, nodes: bool = False) -> np.ndarray:
         """Local indices (with ghosts) of the dofs whose mass is zero (redistributed mass);

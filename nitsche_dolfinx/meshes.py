@@ -130,6 +130,7 @@ def load_mesh(
     facet_tags_name: str = "facet_tags",
     facet_tags_required: bool = True,
     contact_tags=(),
+    with_cell_tags: bool = False,
 ):
     """Read a mesh and its facet tags from a gmsh ``.msh`` file or an XDMF file.
 
@@ -152,9 +153,11 @@ def load_mesh(
             partitioned with each rank given its share of them
             (:func:`~nitsche_dolfinx.partition.contact_bisection`); none: dolfinx's
             partition.
+        with_cell_tags: Also return the cell tags: a ``.msh`` file's physical groups of
+            cells (a material per region, bodies); None from an XDMF file.
 
     Returns:
-        ``(mesh, facet_tags)``.
+        ``(mesh, facet_tags)``, or ``(mesh, cell_tags, facet_tags)`` ``with_cell_tags``.
 
     Raises:
         ValueError: One line naming the file and what is wrong: missing, a folder,
@@ -164,11 +167,13 @@ def load_mesh(
     path = str(path)
     extension = os.path.splitext(path)[1].lower()
     if extension == ".msh":
-        return read_msh(path, comm, gdim, facet_tags_required, tuple(contact_tags))
+        return read_msh(path, comm, gdim, facet_tags_required, tuple(contact_tags), with_cell_tags)
     has_tags = from_root(
         comm, lambda: _check_xdmf(path, extension, mesh_name, facet_tags_name, facet_tags_required)
     )
-    return _read_xdmf(path, comm, gdim, mesh_name, facet_tags_name if has_tags else None)
+    tags_name = facet_tags_name if has_tags else None
+    mesh, facet_tags = _read_xdmf(path, comm, gdim, mesh_name, tags_name)
+    return (mesh, None, facet_tags) if with_cell_tags else (mesh, facet_tags)
 
 
 def _read_xdmf(path: str, comm, gdim, mesh_name: str, facet_tags_name: str | None):

@@ -40,6 +40,7 @@ from .parameters import (
     require_choice,
 )
 from .problem_values import ProblemValue, as_array
+from .regions import CellwiseMaterial
 
 __all__ = ["ContactProblem"]
 
@@ -51,7 +52,10 @@ class ContactProblem:
     Args:
         mesh: The dolfinx mesh (1D, 2D or 3D).
         facet_tags: Facet tags naming the boundary parts used by the terms.
-        material: The elastic material and its density.
+        material: The elastic material and its density, or a dict {cell tag: Material}
+            for a material per region (``cell_tags`` then tags every cell; the
+            parameters become fields constant in each cell, still runtime values:
+            :class:`~nitsche_dolfinx.regions.CellwiseMaterial`).
         degree: Degree of the Lagrange displacement space (1 or 2).
         gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact), or
             gamma0 h_T / E with ``gamma0_scaling="E"``.
@@ -80,6 +84,8 @@ class ContactProblem:
             section 10). gamma0 E (or gamma0) must lie in
             :data:`~nitsche_dolfinx.parameters.GAMMA0_E_RANGE`.
 
+    ``cell_tags``: the mesh's cell tags, for a material per region.
+
     The parameters are checked by :class:`~nitsche_dolfinx.parameters.NitscheParameters`
     and :class:`~nitsche_dolfinx.parameters.Discretisation`.
     ``gamma0`` and ``nitsche_theta`` are ``fem.Constant`` attributes: change
@@ -101,31 +107,45 @@ class ContactProblem:
         method: str = "nitsche",
         mass: str = "consistent",
         gamma0_scaling: str = "absolute",
+        cell_tags=None,
     ):
         require(
-            isinstance(material, Material),
+            isinstance(material, (Material, dict)),
             "material",
             material,
-            "must be a Material: Material(E=..., nu=..., rho=...) or Material.from_lame(...)",
+            "must be a Material: Material(E=..., nu=..., rho=...) or Material.from_lame(...), "
+            "or a dict {cell tag: Material}",
         )
         nitsche = NitscheParameters(gamma0, nitsche_theta, friction, method, gamma0_scaling)
-        nitsche.check_scale(material.E)
+        regions = isinstance(material, dict)
+        #: Every material of the problem (one, or one per cell tag).
+        self.materials = list(material.values()) if regions else [material]
+        for each in self.materials:
+            if isinstance(each, Material):
+                nitsche.check_scale(each.E)
         discretisation = Discretisation(degree, mass, quadrature_degree)
         compat.stable_form_signatures(mesh)  # a sweep finds its compiled forms
         self.mesh = mesh
         self.facet_tags = facet_tags
-        self.material = material
+        self.cell_tags = cell_tags
+        #: The material (None with several: :attr:`materials`, :meth:`largest`).
+        self.material = None if regions else material
         #: The material's parameters as runtime constants: the forms of another
-        #: material are the same compiled forms (docs/method.md section 10).
-        self.material_constants = MaterialConstants(
-            material, lambda value: fem.Constant(mesh, float(value))
+        #: material are the same compiled forms (docs/method.md section 10); with a
+        #: material per cell tag, fields constant in each cell (docs/method.md section 13).
+        self.material_constants = (
+            CellwiseMaterial(mesh, cell_tags, material)
+            if regions
+            else MaterialConstants(material, lambda value: fem.Constant(mesh, float(value)))
         )
         self.degree = discretisation.degree
         self.method = nitsche.method
         self.mass = discretisation.mass
         self.gdim = mesh.geometry.dim
         self.V = compat.function_space(mesh, "Lagrange", self.degree, (self.gdim,))
-        self.mass_matrix = MassMatrix(self.mass, self.V, material.rho, self._contact_facets)
+        self.mass_matrix = MassMatrix(
+            self.mass, self.V, self.material_constants.rho, self._contact_facets
+        )
         self.gamma0 = fem.Constant(mesh, float(gamma0))
         self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
         self.friction = None if friction is None else fem.Constant(mesh, float(friction))
@@ -153,6 +173,15 @@ class ContactProblem:
         self.t = fem.Constant(mesh, 0.0)
         #: The position x in UFL (``ufl.SpatialCoordinate``), for data in space.
         self.x = ufl.SpatialCoordinate(mesh)
+
+    def largest(self, parameter: str) -> float:
+        """The largest value of a :class:`~nitsche_dolfinx.material.Material` property
+        (``"E"``, ``"rho"``, ``"lmbda"``, ...) over the problem's materials."""
+        return max(getattr(material, parameter) for material in self.materials)
+
+    def smallest(self, parameter: str) -> float:
+        """The smallest value of a material property over the problem's materials."""
+        return min(getattr(material, parameter) for material in self.materials)
 
     # -- building the model ------------------------------------------------------------
 
@@ -314,7 +343,7 @@ class ContactProblem:
     def _gamma0_in_words(self) -> str:
         gamma0 = float(np.asarray(self.gamma0.value))
         if self.gamma0_scaling == "absolute":
-            return f"gamma0 * E = {gamma0 * self.material.E:.3g}"
+            return f"gamma0 * E = {gamma0 * self.largest('E'):.3g}"
         return f"gamma0 = {gamma0:.3g} (scaled by E)"
 
     def _suggested_gamma0(self) -> str:

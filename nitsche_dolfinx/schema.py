@@ -212,6 +212,17 @@ SCHEMA: dict[str, Table] = {
         {"value": Key("value in time", REQUIRED, "the force per unit volume")},
     ),
     "initial": Table("the initial values", toml_keys("initial")),
+    "region": Table(
+        "a material for the cells tagged tag (the others take [material]; "
+        "docs/method.md section 13)",
+        {
+            "tag": Key("integer", REQUIRED, "cell tag (a physical group of cells of a .msh "
+                       "file, or a body of a generated mesh)"),
+            **{name: key for name, key in toml_keys("material").items() if name != "rho"},
+            "rho": Key("number", None, "density", shown_default="[material] rho"),
+        },
+        array=True,
+    ),
     "body": Table(
         "a body of a two-body mesh (its cells tagged tag)",
         {

@@ -160,12 +160,14 @@ class ExplicitStepper(TimeLevels):
         fixed = self._dirichlet.dofs  # prescribed: no acceleration of their own
         self._fixed_owned = fixed[fixed < self._product.getLocalSize()]
         if problem.mass == "consistent":
-            self._mass = ConsistentMass(V, problem.material.rho, fixed)
+            self._mass = ConsistentMass(V, problem.material_constants.rho, fixed)
         else:
             self._mass = DiagonalMass(problem.mass_diagonal(), fixed)
         # the body force lumped as the mass is (M f / rho): with the HRZ mass of P2, the
         # consistent int f . v puts no force on the vertices of triangles, and a falling
         # body would not fall rigidly
+        #: the mass of density 1, of the same kind: it lumps the loads per unit volume
+        self._unit_mass = self._unit_density_mass(fixed) if problem.has_loads else None
         self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
         self._load_field = None  # a body force in space: its interpolant (:meth:`_body_load`)
         affine = self._affine()
@@ -261,6 +263,12 @@ class ExplicitStepper(TimeLevels):
         local = self.u.x.array[:n] @ self._product.array_r
         return float(sum_over_ranks(self.comm, [local])[0]) / 2
 
+    def _unit_density_mass(self, fixed):
+        """The mass of density 1 of the problem's kind (diagonal, or consistent)."""
+        if self.problem.mass == "consistent":
+            return ConsistentMass(self.problem.V, 1.0, fixed)
+        return DiagonalMass(self.problem.mass_matrix.of_unit_density().diagonal(), fixed)
+
     def _body_load(self) -> np.ndarray:
         """M f / rho at the current time (owned rows): the body force lumped as the mass is;
         f constant in space by :meth:`_lumped_unit_loads`, else its interpolant's."""
@@ -273,20 +281,20 @@ class ExplicitStepper(TimeLevels):
                 self._load_expression = compat.expression(f, self.problem.V)
             self._load_field.interpolate(self._load_expression)
             field = compat.petsc_vector(self._load_field)
-            self._mass.mult(field, self._work)
-            self._load = self._work.array_r / float(self.problem.material.rho)
+            self._unit_mass.mult(field, self._work)
+            self._load = self._work.array_r.copy()
         return self._load
 
     def _lumped_unit_loads(self) -> np.ndarray:
-        """M e_k / rho for each component k (owned rows): the body force f, constant in
-        space, is f @ these."""
+        """M e_k / rho for each component k (owned rows; with several materials, the mass of
+        density 1 times e_k): the body force f, constant in space, is f @ these."""
         unit, bs = self._product.duplicate(), self.problem.V.dofmap.index_map_bs
         loads = np.zeros((bs, unit.getLocalSize()))
         for k in range(bs):
             unit.array[:] = 0.0
             unit.array[k::bs] = 1.0
-            self._mass.mult(unit, self._work)
-            loads[k] = self._work.array_r / float(self.problem.material.rho)
+            self._unit_mass.mult(unit, self._work)
+            loads[k] = self._work.array_r
         unit.destroy()
         return loads
 
@@ -346,16 +354,13 @@ class ExplicitStepper(TimeLevels):
             raise error
 
     def _potential(self) -> float:
-        """-L(t)(u), the body force lumped as the steps take it (M f / rho . u: the sums
-        of M u by component, dotted with f), and the tractions."""
-        if self.problem.body_force_in_space is not None:
+        """-L(t)(u), the body force lumped as the steps take it (M f / rho . u, M f / rho
+        of :meth:`_body_load`), and the tractions."""
+        body = 0.0
+        if self._unit_loads is not None:
             n = self._product.getLocalSize()
             local = -(self._body_load() @ self.u.x.array[:n])
             body = sum_over_ranks(self.comm, [local])[0]
-        else:
-            moments = self.diagnostics.moments
-            rho = float(self.problem.material.rho)
-            body = -self.problem.body_force() @ moments.sums(self.u) / rho
         if self._tractions is None:
             return float(body)
         return float(body + sum_over_ranks(self.comm, [fem.assemble_scalar(self._tractions)])[0])

@@ -511,9 +511,13 @@ TOML = {
         "takes the keys constant, gradient, hessian",
     ),
     # bodies, probes and columns
-    "body-without-cell-tags": (
-        {"[initial]\nvelocity = [0.0, -1.0]": "[[body]]\ntag = 1\nvelocity = [0.0, -1.0]"},
-        "[[body]] #1 tag = 1: the mesh has no cell tags",
+    "body-unknown-cell-tag": (  # the ring's .msh file has its cells' physical group, 1
+        {"[initial]\nvelocity = [0.0, -1.0]": "[[body]]\ntag = 99\nvelocity = [0.0, -1.0]"},
+        "[[body]] #1 tag = 99: not a cell tag of the mesh (it has [1])",
+    ),
+    "region-unknown-cell-tag": (
+        {"[initial]": "[[region]]\ntag = 99\nE = 2000.0\nnu = 0.3\n\n[initial]"},
+        "[[region]] #1 tag = 99: not a cell tag of the mesh (it has [1])",
     ),
     "body-and-initial-velocity": (
         {"[output]": "[[body]]\ntag = 1\nvelocity = [0.0, -1.0]\n\n[output]"},

@@ -108,7 +108,7 @@ def test_demo_flags_keep_their_names_and_defaults():
 def test_table_names_every_keyword_of_the_api():
     """Every keyword of ContactProblem, Simulation and its run that is a value (not the
     mesh, the material, a scheme object or a callback) is in the table, under its owner."""
-    objects = {"mesh", "facet_tags", "material", "problem", "self", "callback"}
+    objects = {"mesh", "facet_tags", "cell_tags", "material", "problem", "self", "callback"}
     for owner in ("ContactProblem", "Simulation", "Simulation.run"):
         keywords = set(inspect.signature(OWNERS[owner]).parameters) - objects
         listed = {p.name for p in PARAMETERS if p.owner == owner}
