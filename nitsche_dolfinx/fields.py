@@ -25,6 +25,7 @@ from .diagnostics import BoundaryField
 from .material import von_mises
 
 __all__ = [
+    "CellMean",
     "ContactFields",
     "body_fields",
     "LevelRefresh",
@@ -38,13 +39,35 @@ __all__ = [
 
 def body_fields(problem, u, v) -> dict:
     """The fields of the whole body for the output: displacement, velocity and the von
-    Mises stress, as ``{name: (source, value shape)}``."""
+    Mises stress, as ``{name: (source, value shape)}``; with a material per region, its
+    cell tag ``material_id`` (at a node, the mean of the tags of the cells around it: the
+    tag inside a region, between two tags on an interface)."""
     shape = (problem.gdim,)
-    return {
+    fields = {
         "displacement": (u, shape),
         "velocity": (v, shape),
         "von_mises": (von_mises(u, problem.material_constants), ()),
     }
+    material_id = getattr(problem.material_constants, "material_id", None)
+    if material_id is not None:
+        fields["material_id"] = (CellMean(material_id), ())
+    return fields
+
+
+class CellMean:
+    """A field constant in each cell (DG0) written at each node as the mean of the values
+    of the cells around it (:class:`NodalMean`: the same on any partition), for the output
+    (``evaluate(target)``)."""
+
+    def __init__(self, field: fem.Function):
+        self.field = field
+        self._mean = None
+
+    def evaluate(self, target: fem.Function) -> None:
+        if self._mean is None:
+            V = target.function_space
+            self._mean = NodalMean(self.field, V, compat.element_degree(V))
+        self._mean.evaluate(target)
 
 
 class NodalMean:
