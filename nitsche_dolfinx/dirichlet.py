@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from dolfinx import fem
 
+from .facet_selectors import facet_cells
 from .problem_values import ProblemValue
 
 __all__ = ["DirichletCondition", "DirichletDofs"]
@@ -63,17 +64,15 @@ class DirichletDofs:
         #: Each Dirichlet dof once (sorted).
         self.prescribed, last = np.unique(every, return_index=True)
         self._last = len(every) - 1 - last  # its last place among the conditions' dofs
-        # the values in space: interpolated on the cells of their facets only
-        mesh = problem.mesh
-        mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-        connectivity = mesh.topology.connectivity(fdim, mesh.topology.dim)
+        # the values in space: interpolated on a cell of each of their facets only (one
+        # holds every dof of the facet), and once when they do not depend on t
         self._cells = [
-            np.unique(np.concatenate([connectivity.links(f) for f in problem.facets(c.tag)]
-                                     or [np.zeros(0, np.int32)])).astype(np.int32)
+            np.unique(facet_cells(problem.mesh, problem.facets(c.tag))).astype(np.int32)
             if c.value.space_dependent else None
             for _, _, c in self.conditions
         ]  # fmt: skip
         self._field = None  # where they are interpolated
+        self._fixed_values: dict[int, np.ndarray] = {}  # those constant in time
 
     def __bool__(self) -> bool:
         return bool(self.conditions)
@@ -101,10 +100,15 @@ class DirichletDofs:
         if not value.space_dependent:
             values = value.value_at(t)  # one per component
             return np.tile(values, len(dofs) // len(values))
+        if index in self._fixed_values:
+            return self._fixed_values[index]
         if self._field is None:
             self._field = fem.Function(self.V)
         value.interpolate(self._field, t, self._cells[index])
-        return self._field.x.array[dofs]
+        values = self._field.x.array[dofs]  # a copy
+        if not value.time_dependent:
+            self._fixed_values[index] = values
+        return values
 
     def boundary_conditions(self, function: fem.Function) -> list:
         """The dolfinx conditions that give the Dirichlet dofs the values of ``function``

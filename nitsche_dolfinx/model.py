@@ -179,10 +179,6 @@ class ContactProblem:
         (``"E"``, ``"rho"``, ``"lmbda"``, ...) over the problem's materials."""
         return max(getattr(material, parameter) for material in self.materials)
 
-    def smallest(self, parameter: str) -> float:
-        """The smallest value of a material property over the problem's materials."""
-        return min(getattr(material, parameter) for material in self.materials)
-
     # -- building the model ------------------------------------------------------------
 
     def _value(self, value, shape: tuple[int, ...], what: str) -> ProblemValue:

@@ -86,9 +86,10 @@ class ProblemValue:
             self.constant.value = self.value_at(t)
 
     def interpolate(self, target: fem.Function, t: float, cells=None) -> None:
-        """Interpolate the value at time t into ``target`` (a Function on a vector space of
-        ``shape``'s size, or on the gdim-vector space for one component: the value goes to
-        every component), on ``cells`` (default: all). The problem's t is left as it was."""
+        """Interpolate the value (a UFL one: :attr:`space_dependent`) at time t into
+        ``target`` (a Function on a vector space of ``shape``'s size, or on the gdim-vector
+        space for one component: the value goes to every component), on ``cells``
+        (default: all). The problem's t is left as it was."""
         V = target.function_space
         expression = self._interpolation.get(id(V))
         if expression is None:
@@ -96,7 +97,6 @@ class ProblemValue:
             value = self.ufl if size == self.shape[0] else ufl.as_vector([self.ufl[0]] * size)
             expression = self._interpolation[id(V)] = compat.expression(value, V)
         before = float(self._time.value)
-        self.set_time(t)
         self._time.value = t
         try:
             if cells is None:
@@ -105,7 +105,6 @@ class ProblemValue:
                 target.interpolate(expression, cells)
         finally:
             self._time.value = before
-            self.set_time(before)
 
 
 def _texts(texts, mesh, time, shape, what):

@@ -56,15 +56,6 @@ class CellwiseMaterial:
         for field in (self.material_id, *(getattr(self, name) for name in PARAMETERS)):
             field.x.scatter_forward()
 
-    def largest(self, parameter: str) -> float:
-        """The largest value of ``parameter`` (a :class:`Material` property) over the
-        materials."""
-        return max(getattr(m, parameter) for m in self.materials.values())
-
-    def smallest(self, parameter: str) -> float:
-        """The smallest value of ``parameter`` over the materials."""
-        return min(getattr(m, parameter) for m in self.materials.values())
-
 
 def _check_materials(materials) -> None:
     if not isinstance(materials, dict) or not materials:
