@@ -22,6 +22,7 @@ from .history import HISTORY_COLUMNS, History
 from .material import Material
 from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
 from .model import ContactProblem
+from .motion import MovingObstacle
 from .obstacles import PlaneObstacle, SignedDistanceObstacle
 from .output import read_history
 from .parameters import ParameterError
@@ -54,6 +55,7 @@ __all__ = [
     "Material",
     "NewmarkScheme",
     "NitscheContact",
+    "MovingObstacle",
     "ParameterError",
     "PlaneObstacle",
     "SCHEMES",

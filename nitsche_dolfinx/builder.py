@@ -23,11 +23,13 @@ from mpi4py import MPI
 
 from .config import bad, output_parameters, reported_at, setting
 from .diagnostics import BoundaryAverage, PointValue
+from .expressions import has_text
 from .facet_selectors import InBox, NormalWithin, OnPlane, tag_facets
 from .material import Material
 from .mesh_generators import generate_mesh
 from .meshes import load_mesh
 from .model import ContactProblem
+from .motion import MovingObstacle
 from .obstacles import OBSTACLES
 from .parameter_table import PARAMETERS
 from .parameters import Discretisation, NitscheParameters, ParameterError, TimeStepping
@@ -155,8 +157,36 @@ def _obstacles(config: dict, source: str) -> list:
         kind = OBSTACLES[setting(config, "obstacle", "type", table)]
         given = {key: table.get(key, spec.default) for key, spec in kind.keys.items()}
         with reported_at(f"[[obstacle]] #{index + 1}", source):
-            obstacles.append(kind.make(**given))
+            obstacle = kind.make(**given)
+            if "translation" in table or "angle" in table:
+                obstacle = _moving(obstacle, table)
+            obstacles.append(obstacle)
     return obstacles
+
+
+def _moving(shape, table: dict) -> MovingObstacle:
+    """The obstacle of a table with a motion (:data:`~nitsche_dolfinx.motion.MOTION_KEYS`):
+    the translation and the angle as functions of t or texts of t."""
+
+    def in_time(key: str):
+        if key not in table:
+            return None
+        value = time_value(table[key])
+        if callable(value) or has_text(value):
+            return value
+        constant = value if key == "translation" else value[0]  # a fixed shift or turn
+        return lambda t: constant
+
+    angle = table.get("angle")
+    if angle is not None and check_time_value(angle) != 1:
+        raise ParameterError("angle", angle, "the angle is one number (or one value in time)")
+    return MovingObstacle(
+        shape,
+        translation=in_time("translation"),
+        angle=in_time("angle"),
+        pivot=table.get("pivot"),
+        axis=table.get("rotation_axis"),
+    )
 
 
 def _selectors(config: dict, source: str) -> list[list]:

@@ -55,9 +55,10 @@ import contextlib
 import math
 import os
 
-from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
+from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS, OBSTACLE_COLUMNS
 from .keys import KINDS
 from .mesh_generators import GENERATOR_KEYS, check_generator
+from .motion import MOTION_KEYS
 from .obstacles import OBSTACLES
 from .parameter_table import by_name
 from .parameters import OutputParameters, ParameterError, TimeStepping
@@ -286,10 +287,10 @@ def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
     kind = setting({}, "obstacle", "type", obstacle)
     keys = OBSTACLES[kind].keys
     for key in obstacle:
-        if key not in ("type", "tag", *keys):
+        if key not in ("type", "tag", *keys, *MOTION_KEYS):
             raise bad(
                 source, where, key, obstacle[key],
-                f"not a key of a {kind} obstacle (it takes {', '.join(keys)})",
+                f"not a key of a {kind} obstacle (it takes {', '.join([*keys, *MOTION_KEYS])})",
             )  # fmt: skip
     for key, spec in keys.items():
         if spec.required and key not in obstacle:
@@ -313,6 +314,8 @@ _VALUES = (
     ("dirichlet", "value", check_time_value),
     ("traction", "value", check_time_value),
     ("body_force", "value", check_time_value),
+    ("obstacle", "translation", check_time_value),
+    ("obstacle", "angle", check_time_value),
     ("initial", "displacement", check_field_value),
     ("initial", "velocity", check_field_value),
 )
@@ -408,4 +411,5 @@ def history_columns(config: dict, simulation) -> list[str]:
     if columns is not None:
         return list(columns)
     base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
-    return [*base, *(probe["name"] for probe in config.get("probe", []))]
+    work = OBSTACLE_COLUMNS if simulation.problem.moving_contacts else ()
+    return [*base, *work, *(probe["name"] for probe in config.get("probe", []))]

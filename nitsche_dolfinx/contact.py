@@ -22,9 +22,12 @@ Nothing here assembles or solves: every function returns a UFL expression or for
 
 from __future__ import annotations
 
+import copy
+
 import ufl
 
 from .material import sigma_n, sigma_t
+from .motion import LEVELS
 
 __all__ = [
     "NitscheContact",
@@ -151,9 +154,27 @@ class NitscheContact:
         self.gamma_h = gamma_h
         self.nitsche_theta = nitsche_theta
         self.n = ufl.FacetNormal(mesh)
-        self.n_c = obstacle.normal(x)
-        self.gap = obstacle.gap(x)
         self.friction = friction
+        #: Whether the obstacle moves: the terms then see it at the times of a step
+        #: (:meth:`at_level`).
+        self.moving = getattr(obstacle, "moving", False)
+        if self.moving:
+            self._levels = {level: (obstacle.normal(x, level), obstacle.gap(x, level))
+                            for level in LEVELS}  # fmt: skip
+            self.n_c, self.gap = self._levels["new"]
+        else:
+            self.n_c = obstacle.normal(x)
+            self.gap = obstacle.gap(x)
+
+    def at_level(self, level: str) -> NitscheContact:
+        """The contact with its obstacle at a time of the step: ``"old"`` (t^n), ``"mid"``
+        (t^{n+1/2}) or ``"new"`` (t^{n+1}, the contact itself); an obstacle that stands
+        still is at every level (docs/method.md section 13)."""
+        if not self.moving or level == "new":
+            return self
+        view = copy.copy(self)
+        view.n_c, view.gap = self._levels[level]
+        return view
 
     @property
     def frictional(self) -> bool:
@@ -281,18 +302,24 @@ class NitscheContact:
 
     def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
         """Boundary terms of the hybrid scheme: A_Thgamma at the midpoint and Phi; with
-        friction, the step's mean velocity (u_new - u_old) / tau and the threshold mu_f Phi."""
+        friction, the step's mean velocity (u_new - u_old) / tau and the threshold mu_f Phi.
+        A moving obstacle is at the middle of the step in these terms."""
         u_mid, force = self.hybrid_state(u_old, u_new)
-        return self.affine_terms(u_mid, v) + self.force_terms(u_mid, velocity, force, v, reference)
+        mid = self.at_level("mid")
+        return mid.affine_terms(u_mid, v) + mid.force_terms(u_mid, velocity, force, v, reference)
 
     def hybrid_state(self, u_old, u_new):
         """What the hybrid scheme's contact terms see: the midpoint u^{n+1/2} and the
-        normal force Phi(u^n, u^{n+1}) per quadrature point."""
+        normal force Phi(u^n, u^{n+1}) per quadrature point. With a moving obstacle,
+        P(u^n) with the obstacle at t^n, P(u^{n+1}) at t^{n+1} and their mean for the
+        midpoint (docs/method.md section 13)."""
         u_mid = (u_old + u_new) / 2
-        force = hybrid_contact_force(
-            self.projection(u_old), self.projection(u_mid), self.projection(u_new)
-        )
-        return u_mid, force
+        if not self.moving:
+            P_mid = self.projection(u_mid)
+            force = hybrid_contact_force(self.projection(u_old), P_mid, self.projection(u_new))
+            return u_mid, force
+        P_old, P_new = self.at_level("old").projection(u_old), self.projection(u_new)
+        return u_mid, hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
 
     @staticmethod
     def _velocity(velocity):

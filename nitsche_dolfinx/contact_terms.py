@@ -56,7 +56,7 @@ class ContactTerms:
         form = 0
         for contact in self.contacts:
             u_mid, force = contact.hybrid_state(u_old, u_new)
-            form = form + self.term(contact, u_mid, velocity, force, v)
+            form = form + self.term(contact.at_level("mid"), u_mid, velocity, force, v)
         return form
 
 

@@ -26,6 +26,7 @@ __all__ = [
     "momentum_columns",
     "FRICTION_HISTORY_COLUMNS",
     "HISTORY_COLUMNS",
+    "OBSTACLE_COLUMNS",
     "STATE_COLUMNS",
     "STEP_COLUMNS",
     "History",
@@ -53,6 +54,9 @@ HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds", *ST
 BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
 #: Columns of ``history.csv`` for the friction demos: the balance after the listed ones.
 FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
+#: The columns of a run with a moving obstacle: the work the obstacles did since t = 0 and
+#: the energy the contact terms dissipated since t = 0 (docs/method.md section 13).
+OBSTACLE_COLUMNS = ("obstacle_work", "contact_dissipation")
 
 
 def _by_component(name: str, gdim: int) -> tuple[str, ...]:

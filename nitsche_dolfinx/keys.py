@@ -72,6 +72,10 @@ KINDS: dict[str, tuple[str, Callable[[object], bool]]] = {
         "or a profile {profile = ...}",
         lambda v: is_number(v) or isinstance(v, (str, list, dict)),
     ),
+    "scalar in time": (
+        "a number, an expression of t, a table [[t, value], ...] or a profile {profile = ...}",
+        lambda v: is_number(v) or isinstance(v, (str, list, dict)),
+    ),
     "value in x": (
         "a vector (of numbers or expressions of x, y, z) or {constant, gradient, hessian}",
         lambda v: is_number(v) or isinstance(v, (str, list, dict)),

@@ -250,12 +250,24 @@ class ContactProblem:
     def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
         self.facets(tag)
-        point = getattr(obstacle, "point", None)  # a plane: of the mesh's dimension
+        shape = getattr(obstacle, "shape", obstacle)  # a moving obstacle's at t = 0
+        point = getattr(shape, "point", None)  # a plane: of the mesh's dimension
         if point is not None and len(point) != self.gdim:
             raise ValueError(
                 f"obstacle point {list(point)} has {len(point)} coordinates, the mesh has "
                 f"{self.gdim}"
             )
+        if getattr(obstacle, "moving", False):
+            require(
+                self.method != "mixed", "method", self.method,
+                "a moving obstacle takes Nitsche's or the penalty method",
+            )  # fmt: skip
+            require(
+                self.friction is None, "friction", float(self.friction.value)
+                if self.friction is not None else None,
+                "a moving obstacle is frictionless so far (the slip would be relative to it)",
+            )  # fmt: skip
+            obstacle.bind(self.mesh)
         law = PenaltyContact if self.method == "penalty" else NitscheContact
         contact = law(
             obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction
@@ -491,6 +503,18 @@ class ContactProblem:
         for tag, traction in self._tractions:
             form = form + ufl.inner(traction.ufl, v) * self.ds(tag)
         return form
+
+    @property
+    def moving_contacts(self) -> list[NitscheContact]:
+        """The contacts whose obstacle moves (:class:`~nitsche_dolfinx.motion.MovingObstacle`)."""
+        return [contact for contact in self.contacts if contact.moving]
+
+    def move_obstacles(self, t_old: float, t_new: float | None = None) -> None:
+        """Put the moving obstacles at the times of a step from ``t_old`` to ``t_new``
+        (``"old"``, ``"mid"`` and ``"new"``: docs/method.md section 13); without ``t_new``,
+        at t_old, the current level."""
+        for contact in self.moving_contacts:
+            contact.obstacle.move(t_old, t_new)
 
     def set_time(self, t: float) -> None:
         """Move the data to time ``t``: :attr:`t` and the functions of t."""

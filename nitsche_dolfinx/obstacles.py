@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import fem
+from ufl.domain import extract_unique_domain
 
 from .keys import LARGEST, REQUIRED, Key, is_number
 from .parameters import require, require_positive
@@ -35,6 +36,9 @@ __all__ = [
 
 class Obstacle:
     """A rigid obstacle: subclasses define :meth:`distance`."""
+
+    #: Whether it moves in time (:class:`~nitsche_dolfinx.motion.MovingObstacle`).
+    moving = False
 
     def distance(self, x):
         """Signed distance d(x) as a UFL expression of the spatial coordinate ``x``."""
@@ -72,7 +76,7 @@ class PlaneObstacle(Obstacle):
     def normal(self, x):
         # a Constant rather than literals: FFCx 0.5 cannot generate the friction terms'
         # tangential projection I - n_c n_c^T when its entries are literal numbers
-        return fem.Constant(x.ufl_domain(), -self.unit_normal)
+        return fem.Constant(_domain(x), -self.unit_normal)
 
     def __repr__(self):
         return f"PlaneObstacle(point={self.point.tolist()}, normal={self.unit_normal.tolist()})"
@@ -142,11 +146,17 @@ def _check_side(side: str) -> str:
 def _constants(obstacle, x, *values) -> tuple:
     """``values`` as fem.Constants on the mesh of ``x``, made once per obstacle and mesh
     (the gap and the normal share them)."""
-    domain = x.ufl_domain()
+    domain = _domain(x)
     cached = obstacle.__dict__.get("_constants")
     if cached is None or cached[0] is not domain:
         cached = obstacle._constants = (domain, tuple(fem.Constant(domain, v) for v in values))
     return cached[1]
+
+
+def _domain(x):
+    """The mesh of a UFL expression of the position (the position itself, or a moved one:
+    :mod:`~nitsche_dolfinx.motion`)."""
+    return extract_unique_domain(x)
 
 
 def _check_dimension(array: np.ndarray, x, what: str) -> None:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 from .keys import REQUIRED, Key, toml_text
 from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
+from .motion import MOTION_KEYS
 from .obstacles import OBSTACLES
 from .parameter_table import by_name, toml_keys
 from .valueforms import PROFILES
@@ -137,7 +138,7 @@ def _obstacle_keys() -> dict[str, Key]:
         first = specs[0]
         default = None if first.required else first.default
         keys[key] = Key(first.kind, default, meaning, first.choices)
-    return keys
+    return {**keys, **MOTION_KEYS}
 
 
 #: For each table: what it is and its keys.

@@ -27,6 +27,7 @@ from .fields import ContactFields, LevelRefresh, OnBoundary, body_fields
 from .friction import FrictionOutput, GuardedNewton
 from .linear_solvers import LinearSolver
 from .model import ContactProblem
+from .obstacle_work import ObstacleWork
 from .pair_coupling import PairCoupling
 from .parameters import ParameterError, TimeStepping, require
 from .petsc_snes import SolverSettings
@@ -198,6 +199,10 @@ class NitscheStepper(TimeLevels):
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
         self._contact_fields = None  # ContactFields, once the output asks for them
         self._massless = problem.massless_dofs()
+        self._obstacles = None  # the work of moving obstacles (docs/method.md section 13)
+        if problem.moving_contacts:
+            self._u_new = fem.Function(V)
+            self._obstacles = ObstacleWork(problem, scheme, self.u, self._u_new)
         self._initialize(petsc_options, linear_solver)
 
     def _initialize(self, petsc_options, linear_solver) -> None:
@@ -209,6 +214,7 @@ class NitscheStepper(TimeLevels):
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
+        problem.move_obstacles(0.0)
         initial_acceleration(
             problem,
             self.a,
@@ -223,6 +229,8 @@ class NitscheStepper(TimeLevels):
         level, and the optional ones (:class:`~nitsche_dolfinx.diagnostics.Diagnostics`)
         that ``columns`` name (None: all)."""
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
+        if self._obstacles is not None:
+            values.update(self._obstacles.values())
         values["friction_dissipation"] = self.friction_dissipation
         values["energy_balance_residual"] = (
             0.0
@@ -251,21 +259,34 @@ class NitscheStepper(TimeLevels):
             coefficient = scheme.displacement_coefficient(dt)
             self._w_bc.x.array[dofs] = (prescribed - u_free) / coefficient
         self._energy_before = self._energy_theta()
+        problem.move_obstacles(self.t, t_new)
         self.w.x.array[:] = a  # initial guess: the last acceleration
         try:
             iterations = self._solve()
         except SolverError as error:
+            problem.move_obstacles(self.t)
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
         u1, v1, a1 = scheme.kinematics(u, v, a, self.w.x.array, dt)
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
             self.friction_dissipation = self._friction.work(u1 - u)
+        sums = None if self._obstacles is None else self._obstacles.saved()
+        if self._obstacles is not None:
+            self._u_new.x.array[:] = u1
+            self._obstacles.step()
         for previous, new, array in zip(self._previous, (u1, v1, a1), (u, v, a)):
             previous[:], array[:] = array, new
-        self._check_energy_control(iterations, t_new)
+        try:
+            self._check_energy_control(iterations, t_new)
+        except UncontrolledStep:
+            problem.move_obstacles(self.t)
+            if sums is not None:
+                self._obstacles.restore(sums)
+            raise
         self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
+        problem.move_obstacles(self.t)
         self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
@@ -357,7 +378,8 @@ class NitscheStepper(TimeLevels):
     def levels(self) -> dict[str, Any]:
         """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
         moved = self.solver.linear_tolerances.last_move
-        return {**super().levels(), "contact_set_moved": moved}
+        sums = {} if self._obstacles is None else self._obstacles.saved()
+        return {**super().levels(), "contact_set_moved": moved, **sums}
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
@@ -367,3 +389,6 @@ class NitscheStepper(TimeLevels):
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0
         self.problem.set_time(t)
+        self.problem.move_obstacles(t)
+        if self._obstacles is not None:
+            self._obstacles.restore(saved)

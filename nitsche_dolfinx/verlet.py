@@ -37,6 +37,7 @@ from .dirichlet import DirichletDofs
 from .explicit_mass import ConsistentMass, DiagonalMass, MasslessNodes
 from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
+from .obstacle_work import ObstacleWork
 from .pair_coupling import add_partner_terms
 from .parameters import ParameterError, TimeStepping
 from .schemes import VerletScheme
@@ -101,6 +102,9 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
         (bool(problem.pairs) and problem.mass == "redistributed", "mass", problem.mass,
          "the verlet scheme takes contact between bodies with the lumped or consistent "
          "mass"),
+        (bool(problem.moving_contacts) and problem.mass == "redistributed", "mass",
+         problem.mass, "the verlet scheme takes a moving obstacle with the lumped or "
+         "consistent mass"),
         (problem.frictional, "friction",
          constant_value(problem.friction) if problem.frictional else None,
          "the verlet scheme is frictionless"),
@@ -137,17 +141,22 @@ class ExplicitStepper(TimeLevels):
         self._pairs = problem.pairs  # contact between bodies: the partner-tested terms apart
         problem.track_partners(self.u, self.v)
         partner_forms = []
+        fixed_affine = None  # the affine terms of the obstacles that stand still
         for contact in problem.contacts:
             term = contact.affine_terms(trial, test)
             affine = term if affine is None else affine + term
+            if not contact.moving:
+                fixed_affine = term if fixed_affine is None else fixed_affine + term
             force = positive_part(contact.projection(self.u))
             term = contact.force_terms(self.u, self.v, force, test)
+            if contact.moving:  # its normal may turn: A_Thgamma's boundary part each step
+                term = term + contact.affine_terms(self.u, test)
             forces = term if forces is None else forces + term
             if contact in self._pairs:
                 partner_forms.append(fem.form(contact.partner_term(force, test)))
         self._partner_forms = partner_forms
         self._stiffness = assembled_matrix(problem.bulk_stiffness(trial, test))
-        self._boundary = None if affine is None else assembled_matrix(affine)
+        self._boundary = None if fixed_affine is None else assembled_matrix(fixed_affine)
         boundary = -forces if forces is not None else None
         if problem.has_tractions:
             tractions = problem.traction_load(test)
@@ -170,7 +179,8 @@ class ExplicitStepper(TimeLevels):
         self._unit_mass = self._unit_density_mass(fixed) if problem.has_loads else None
         self._unit_loads = self._lumped_unit_loads() if problem.has_loads else None
         self._load_field = None  # a body force in space: its interpolant (:meth:`_body_load`)
-        affine = self._affine()
+        problem.move_obstacles(0.0)
+        affine = self._affine(affine)
         self._massless = MasslessNodes(problem, self.u, forces, affine, fixed)
         #: The estimated stable step (:func:`~nitsche_dolfinx.stable_step.stable_step`)
         self.stable_dt = stable_step(problem, affine, self._mass)
@@ -188,6 +198,11 @@ class ExplicitStepper(TimeLevels):
         self._contact_fields = None
         self.friction_dissipation = 0.0
         self._energy_before = None
+        self._obstacles = None  # the work of moving obstacles (docs/method.md section 13)
+        self._sums = None  # the obstacles' sums before the step (put back with the state)
+        if problem.moving_contacts:
+            self._u_old = fem.Function(V)
+            self._obstacles = ObstacleWork(problem, scheme, self._u_old, self.u)
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._scratch = np.empty_like(self.u.x.array)
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
@@ -248,13 +263,15 @@ class ExplicitStepper(TimeLevels):
         vector.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         return vector, self._product
 
-    def _affine(self) -> PETSc.Mat:
-        """The matrix of all the affine terms, the bulk's and the boundary's (the set-up's:
-        the steps take their products apart)."""
-        if self._boundary is None:
+    def _affine(self, boundary) -> PETSc.Mat:
+        """The matrix of all the affine terms, the bulk's and the ``boundary`` form's (a
+        moving obstacle's at t = 0), for the set-up: the steps take their products apart."""
+        if boundary is None:
             return self._stiffness
+        matrix = assembled_matrix(boundary)
         total = self._stiffness.duplicate(copy=True)
-        total.axpy(1.0, self._boundary, structure=PETSc.Mat.Structure.SUBSET)  # cells' pattern
+        total.axpy(1.0, matrix, structure=PETSc.Mat.Structure.SUBSET)  # cells' pattern
+        matrix.destroy()
         return total
 
     def _elastic(self) -> float:
@@ -323,12 +340,18 @@ class ExplicitStepper(TimeLevels):
         u += np.multiply(dt**2 / 2, a, out=scratch)
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
+        self.problem.move_obstacles(self.t, t_new)
+        if self._obstacles is not None:
+            self._sums = self._obstacles.saved()
         try:
             self._accelerate()
         except SolverError as error:
             self._put_back()
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
+        if self._obstacles is not None:
+            self._u_old.x.array[:] = self._previous[0]
+            self._obstacles.step()
         v += np.multiply(dt / 2, np.add(self._previous[2], a, out=scratch), out=scratch)
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
@@ -336,6 +359,7 @@ class ExplicitStepper(TimeLevels):
         massless_velocity(self._massless.local, self._previous[0], u, v, a, dt)
         self._check_growth(self._energy_scale(), dt, t_new)
         self._arrive(t_new, dt, cuts)
+        self.problem.move_obstacles(self.t)
         self.step_seconds = time.perf_counter() - start
         return 0
 
@@ -399,9 +423,14 @@ class ExplicitStepper(TimeLevels):
             array.x.array[:] = previous
         self.diagnostics.remember(self.step_index, None)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
+        self.problem.move_obstacles(self.t)
+        if self._obstacles is not None and self._sums is not None:
+            self._obstacles.restore(self._sums)
 
     def state(self, columns=None) -> dict[str, float]:
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
+        if self._obstacles is not None:
+            values.update(self._obstacles.values())
         values["friction_dissipation"] = 0.0
         values["energy_balance_residual"] = (
             0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
@@ -432,10 +461,18 @@ class ExplicitStepper(TimeLevels):
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
 
+    def levels(self) -> dict[str, Any]:
+        """The clock and the sums of the obstacles' work, for a checkpoint."""
+        sums = {} if self._obstacles is None else self._obstacles.saved()
+        return {**super().levels(), **sums}
+
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
         self.step_seconds = 0.0
         self.problem.set_time(t)
+        self.problem.move_obstacles(t)
+        if self._obstacles is not None:
+            self._obstacles.restore(saved)
         self.diagnostics.remember(self.step_index, None)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
         self._settled, self._recent = max(self._settled, self._energy_scale()), deque()

@@ -447,7 +447,8 @@ TOML = {
     ),
     "plane-with-radius": (
         {"normal = [0.0, 1.0]": "normal = [0.0, 1.0]\nradius = 5.0"},
-        "[[obstacle]] #1 radius = 5.0: not a key of a plane obstacle (it takes point, normal)",
+        "[[obstacle]] #1 radius = 5.0: not a key of a plane obstacle (it takes point, normal, "
+        "translation, angle, pivot, rotation_axis)",
     ),
     "circle-side-unknown": (
         curved("circle", 'center = [0.0, -5.0]\nradius = 5.0\nside = "above"'),
