@@ -29,7 +29,7 @@ from dolfinx import fem
 
 from .expressions import has_text, parse_expression, to_ufl
 from .keys import Key
-from .obstacles import Obstacle, _coordinates, _unit
+from .obstacles import Obstacle, PlaneObstacle, _coordinates, _unit
 from .parameters import ParameterError, require
 from .problem_values import as_array
 
@@ -146,6 +146,12 @@ class MovingObstacle(Obstacle):
             self.axis = _unit(_coordinates(axis, "axis", "the axis"), "axis", "the axis")
         self.translation = self.angle = None  # _LevelValues, made by bind
         self.mesh = None
+
+    @property
+    def turns(self) -> bool:
+        """Whether the normal at a point of the body changes in time: a rotation, or a shape
+        other than a plane."""
+        return self._angle is not None or not isinstance(self.shape, PlaneObstacle)
 
     def bind(self, mesh) -> None:
         """Make the motion's runtime constants on ``mesh`` (the problem calls it when the

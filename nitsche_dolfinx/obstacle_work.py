@@ -21,8 +21,9 @@ dissipation is::
     D = int_Gamma_C (1/gamma_h) (F (P(u^{n+1}; t^{n+1}) - P(u^n; t^n))
                                  - ([P(u^{n+1}; t^{n+1})]_+^2 - [P(u^n; t^n)]_+^2) / 2) >= 0
 
-With Theta = 1 and an obstacle that translates (a plane: its normal stays), the hybrid
-scheme, Crank-Nicolson and Newmark (1/4, 1/2) then satisfy
+A normal that turns with the obstacle (a rotation, or a translated sphere) also changes
+E_Theta's -Theta/2 gamma_h sigma_n(u)^2 at a fixed displacement: W holds that change too.
+With Theta = 1, the hybrid scheme, Crank-Nicolson and Newmark (1/4, 1/2) then satisfy
 E_Theta^{n+1} - E_Theta^n = W - D (+ the loads' work) to the solver's tolerance.
 """
 
@@ -30,11 +31,28 @@ from __future__ import annotations
 
 from dolfinx import fem
 
-from .contact import hybrid_contact_force, positive_part
+from .contact import PenaltyContact, hybrid_contact_force, positive_part
 from .diagnostics import assemble_global
 from .schemes import HybridScheme
 
 __all__ = ["ObstacleWork"]
+
+
+def _turned_normal(contact, u_old, u_new, hybrid: bool):
+    """What the obstacle's turning normal adds to the change of E_Theta's
+    -Theta/2 gamma_h sigma_n(u)^2 beyond what the step's consistency term does
+    (docs/method.md section 13): zero when n_c does not change."""
+    old, mid = contact.at_level("old"), contact.at_level("mid")
+    weight = contact.nitsche_theta * contact.gamma_h / 2
+    if hybrid:  # the term at the middle: -Theta gamma_h sigma_n(u_mid) sigma_n(delta), at mid
+        return -weight * (
+            contact.sigma_n(u_new) ** 2 - mid.sigma_n(u_new) ** 2
+            - old.sigma_n(u_old) ** 2 + mid.sigma_n(u_old) ** 2
+        )  # fmt: skip
+    # the trapezoid of the term at the two ends, each with its own normal
+    return weight * (
+        old.sigma_n(u_old) * old.sigma_n(u_new) - contact.sigma_n(u_new) * contact.sigma_n(u_old)
+    )
 
 
 class ObstacleWork:
@@ -49,13 +67,15 @@ class ObstacleWork:
 
     Attributes:
         work: The work of the moving obstacles since t = 0 (``obstacle_work``).
-        dissipation: The contact terms' dissipation since t = 0 (``contact_dissipation``).
+        dissipation: The contact terms' dissipation since t = 0 (``contact_dissipation``),
+            of every obstacle's (contact pairs left out).
     """
 
     def __init__(self, problem, scheme, u_old: fem.Function, u_new: fem.Function):
         hybrid = isinstance(scheme, HybridScheme)
         work, dissipation = 0, 0
-        for contact in problem.moving_contacts:
+        pairs = problem.pairs  # their partners are not those of u_old and u_new: left out
+        for contact in (c for c in problem.contacts if c not in pairs):
             old, mid = contact.at_level("old"), contact.at_level("mid")
             P_old, P_new = old.projection(u_old), contact.projection(u_new)
             if hybrid:
@@ -68,7 +88,10 @@ class ObstacleWork:
                     + positive_part(P_new) * (P_new - contact.projection(u_old))
                 ) / 2  # fmt: skip
             change = P_new - P_old
-            work = work + (force * change - moved) / contact.gamma_h * contact.ds
+            if contact.moving:  # an obstacle that stands still does no work
+                work = work + (force * change - moved) / contact.gamma_h * contact.ds
+                if not isinstance(contact, PenaltyContact):  # its normal turns in E_Theta too
+                    work = work + _turned_normal(contact, u_old, u_new, hybrid) * contact.ds
             stored = (positive_part(P_new) ** 2 - positive_part(P_old) ** 2) / 2
             dissipation = dissipation + (force * change - stored) / contact.gamma_h * contact.ds
         self._forms = (fem.form(work), fem.form(dissipation))

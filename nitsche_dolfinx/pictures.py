@@ -136,6 +136,17 @@ def render_deformed(
     _with_pyvista(lambda pyvista: _render(pyvista, snapshot, dim, title, path, ground), path)
 
 
+def _colour_scale(largest: float) -> tuple[float, float]:
+    """A round top for a colour scale from 0 to ``largest`` and the step of its labels
+    (1, 2 or 5 times a power of ten, at most 8 steps: 5 for the talk's ball, 5e8 for a
+    steel part in Pa)."""
+    if not largest > 0.0:
+        return 1.0, 1.0
+    power = 10.0 ** (np.floor(np.log10(largest)) - 1)
+    step = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if np.ceil(largest / (m * power)) <= 8)
+    return step * np.ceil(largest / step), step
+
+
 def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str, ground: bool) -> None:
     cells, cell_types, points, displacement, von_mises = snapshot.grid
     grid = pyvista.UnstructuredGrid(cells, cell_types, points)
@@ -146,12 +157,12 @@ def _render(pyvista, snapshot: Snapshot, dim: int, title: str, path: str, ground
     # and the cell edges, sampled at the same points, so that they lie on that surface
     surface = _surface(deformed, 3)
     edges = _curved_edges(pyvista, cells, deformed.points, samples=8)
-    top = 5.0 * np.ceil(np.max(von_mises) / 5.0)  # a round top for the colour scale
+    top, step = _colour_scale(float(np.max(von_mises)))
     colours = {"scalars": "von Mises", "cmap": "jet", "clim": (0.0, top)}
     bar = {
         "title": "von Mises stress",
-        "n_labels": int(round(top / 5.0)) + 1,
-        "fmt": "%.0f",
+        "n_labels": int(round(top / step)) + 1,
+        "fmt": "%.0f" if step >= 1.0 and top < 1e6 else "%.3g",
         "position_x": 0.3,
         "position_y": 0.04,
         "width": 0.4,
