@@ -55,7 +55,7 @@ import contextlib
 import math
 import os
 
-from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
+from .history import DAMPING_COLUMNS, FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
 from .keys import KINDS
 from .mesh_generators import GENERATOR_KEYS, check_generator
 from .obstacles import OBSTACLES
@@ -408,4 +408,5 @@ def history_columns(config: dict, simulation) -> list[str]:
     if columns is not None:
         return list(columns)
     base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
-    return [*base, *(probe["name"] for probe in config.get("probe", []))]
+    damping = DAMPING_COLUMNS if simulation.problem.damping is not None else ()
+    return [*base, *damping, *(probe["name"] for probe in config.get("probe", []))]
