@@ -212,7 +212,7 @@ class ExplicitStepper(TimeLevels):
         problem.set_time(0.0)
         self._accelerate(equilibrium=False, velocity=self.v.x.array)
         #: C v at the current level: alpha M v^n + beta K v^{n-1/2} (C v0 at t = 0)
-        self._damping_force = self._level_damping_force(self.v.x.array)
+        self._damping_force = self._level_damping_force(0.0)
         initial = self.diagnostics.energies()
         #: the largest energy scale up to the window (see _check_growth)
         self._settled = max(self._energy_scale(), abs(initial["potential"]))
@@ -345,11 +345,14 @@ class ExplicitStepper(TimeLevels):
         if self._damping is not None and dt > 0.0:
             self.a.x.array[:] /= 1.0 + self.problem.damping.values[0] * dt / 2
 
-    def _level_damping_force(self, half_step: np.ndarray) -> PETSc.Vec | None:
-        """C v at the current level as the steps take it: alpha M v + beta K ``half_step``
-        (None without damping)."""
+    def _level_damping_force(self, dt: float) -> PETSc.Vec | None:
+        """C v at the current level as the steps take it, alpha M v^n + beta K v^{n-1/2}
+        with v^{n-1/2} = v^n - ``dt``/2 a^n, ``dt`` the last step's size (0 at t = 0: C v0);
+        from the level's own arrays, so that a restart computes it to the bit (None without
+        damping)."""
         if self._damping is None:
             return None
+        half_step = self.v.x.array - dt / 2 * self.a.x.array
         return self._damping.force(half_step, self._product.duplicate(), self.v.x.array)
 
     def step(self, t_new: float | None = None, cuts: int = 0) -> int:
@@ -381,16 +384,16 @@ class ExplicitStepper(TimeLevels):
         massless_velocity(self._massless.local, self._previous[0], u, v, a, dt)
         self._check_growth(self._energy_scale(), dt, t_new)
         if self._damping is not None:
-            self._damp(half_step, dt)
+            self._damp(dt)
         self._arrive(t_new, dt, cuts)
         self.step_seconds = time.perf_counter() - start
         return 0
 
-    def _damp(self, half_step: np.ndarray, dt: float) -> None:
+    def _damp(self, dt: float) -> None:
         """The step's damping dissipation, tau/4 (F^n + F^{n+1}) . (v^n + v^{n+1}) with
         F the levels' damping forces (docs/method.md section 14): the damping's share of the
         kinetic energy's change in the velocity update; added to the running total."""
-        force = self._level_damping_force(half_step)
+        force = self._level_damping_force(dt)
         n = force.getLocalSize()
         total = self._damping_force.array_r + force.array_r
         local = dt / 4 * float(total @ (self._previous[1][:n] + self.v.x.array[:n]))
@@ -510,11 +513,8 @@ class ExplicitStepper(TimeLevels):
         if self._damping is not None:  # the level's force F^n: v^{n-1/2} = v^n - tau/2 a^n
             self.damping_dissipation = float(saved.get("damping_dissipation", 0.0))
             self._damping_step = 0.0
-            dt = float(saved.get("damping_last_dt", 0.0))
             self._damping_force.destroy()
-            self._damping_force = self._level_damping_force(
-                self.v.x.array - dt / 2 * self.a.x.array
-            )
+            self._damping_force = self._level_damping_force(saved.get("damping_last_dt", 0.0))
         self.step_seconds = 0.0
         self.problem.set_time(t)
         self.diagnostics.remember(self.step_index, None)
