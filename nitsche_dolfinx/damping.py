@@ -2,7 +2,7 @@
 
 M is the problem's own mass (consistent as a form, or the lumped or redistributed
 diagonal, which the solver adds as a matrix), K the bulk stiffness a(u, v) alone (not the
-Nitsche terms on Gamma_C). alpha [1/s] and beta [s] are runtime constants: changing them
+Nitsche terms on Gamma_C). alpha [1/time] and beta [time] are runtime constants: changing them
 recompiles nothing. The modal damping ratio of a mode of circular frequency omega is
 ``zeta = alpha / (2 omega) + beta omega / 2``.
 
@@ -136,6 +136,7 @@ class DampingPower:
     def __init__(self, damping: RayleighDamping, mass, stiffness: PETSc.Mat, comm):
         self.damping, self._mass, self._stiffness, self.comm = damping, mass, stiffness, comm
         self._x, self._y = stiffness.createVecs()
+        self._force = self._y.duplicate()
 
     def force(self, x: np.ndarray, out: PETSc.Vec, mass_velocity=None) -> PETSc.Vec:
         """out = beta K x + alpha M y (owned entries), y = ``mass_velocity`` (default x), for
@@ -154,15 +155,14 @@ class DampingPower:
 
     def __call__(self, x: np.ndarray) -> float:
         """x . C x, identical on every rank."""
-        force = self.force(x, self._y.duplicate())
+        force = self.force(x, self._force)
         n = self._x.getLocalSize()
         local = float(x[:n] @ force.array_r)
-        force.destroy()
         return float(sum_over_ranks(self.comm, [local])[0])
 
     def destroy(self) -> None:
-        self._x.destroy()
-        self._y.destroy()
+        for vector in (self._x, self._y, self._force):
+            vector.destroy()
 
 
 def damped_stable_step(largest: float, bulk_largest: float, beta: float) -> float:

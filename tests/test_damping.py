@@ -15,6 +15,7 @@ from nitsche_dolfinx import ContactProblem, Material, ParameterError, Simulation
 from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cases import bar_problem, block_problem
 from nitsche_dolfinx.config import ConfigError, history_columns, load_config
+from nitsche_dolfinx.linear_solvers import choose_linear_solver
 from nitsche_dolfinx.meshes import BAR_CLAMPED, bar_mesh
 from nitsche_dolfinx.schemes import make_scheme
 from nitsche_dolfinx.signals import RunInterrupted
@@ -310,6 +311,15 @@ def test_toml_damping_is_the_api_s(tmp_path):
     for name in ("energy", "damping_dissipation"):
         assert np.array_equal(from_toml[name], from_api[name]), name
     assert from_api["damping_dissipation"][-1] > 0.1 * from_api["energy"][0]
+
+
+def test_stiffness_damping_counts_in_the_choice_of_the_linear_solver():
+    """The step's Jacobian weighs K by tau^2 + 2 beta tau (CN, hybrid): "auto" takes
+    cg-jacobi only while the mass dominates that Jacobian (Courant number sqrt(tau^2 + 2
+    beta tau) c / h at most 1; here 0.5 undamped, 2.3 with beta = 0.1)."""
+    assert choose_linear_solver(clamped_bar(0.0, 0.0), 0.01) == "cg-jacobi"
+    assert choose_linear_solver(clamped_bar(1.0, 0.0), 0.01) == "cg-jacobi"
+    assert choose_linear_solver(clamped_bar(0.0, 0.1), 0.01) == "lu"
 
 
 def test_no_damping_writes_no_term_and_no_column():
