@@ -22,6 +22,7 @@ import ufl
 from mpi4py import MPI
 
 from .config import bad, output_parameters, reported_at, setting
+from .damping import check_damping
 from .diagnostics import BoundaryAverage, PointValue
 from .expressions import has_text
 from .facet_selectors import InBox, NormalWithin, OnPlane, tag_facets
@@ -89,7 +90,7 @@ def _keywords(config: dict, owner: str) -> dict:
     :data:`~nitsche_dolfinx.parameter_table.OWNERS`) that TOML keys set, each as given or
     at its TOML default."""
     return {
-        parameter.name: setting(config, parameter.table, parameter.toml_key)
+        parameter.argument: setting(config, parameter.table, parameter.toml_key)
         for parameter in PARAMETERS
         if parameter.owner == owner and parameter.toml_key is not None
     }
@@ -119,6 +120,8 @@ def _checked_values(config: dict, source: str) -> _Checked:
             nitsche.check_scale(each.E)
     with reported_at("[mesh]", source):
         Discretisation(**{f.name: problem[f.name] for f in fields(Discretisation)})
+    with reported_at("[damping]", source):
+        check_damping(**_keywords(config, "ContactProblem.set_damping"))
     obstacles = _obstacles(config, source)
     selectors = _selectors(config, source)
     output_parameters(config, source)
@@ -330,6 +333,9 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
         values["velocity"] = _body_velocities(problem, config["body"], cell_tags, source)
     with reported_at("[initial]", source):
         problem.set_initial_conditions(**values)
+    if "damping" in config:  # (without the table: no damping term in the forms)
+        with reported_at("[damping]", source):
+            problem.set_damping(**_keywords(config, "ContactProblem.set_damping"))
     return contacts
 
 

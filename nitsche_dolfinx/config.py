@@ -55,7 +55,12 @@ import contextlib
 import math
 import os
 
-from .history import FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS, OBSTACLE_COLUMNS
+from .history import (
+    DAMPING_COLUMNS,
+    FRICTION_HISTORY_COLUMNS,
+    HISTORY_COLUMNS,
+    OBSTACLE_COLUMNS,
+)
 from .keys import KINDS
 from .mesh_generators import GENERATOR_KEYS, check_generator
 from .motion import MOTION_KEYS
@@ -412,4 +417,5 @@ def history_columns(config: dict, simulation) -> list[str]:
         return list(columns)
     base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
     work = OBSTACLE_COLUMNS if simulation.problem.moving_contacts else ()
-    return [*base, *work, *(probe["name"] for probe in config.get("probe", []))]
+    damping = DAMPING_COLUMNS if simulation.problem.damping is not None else ()
+    return [*base, *work, *damping, *(probe["name"] for probe in config.get("probe", []))]

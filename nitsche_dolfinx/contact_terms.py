@@ -46,6 +46,9 @@ class ContactTerms:
     def load(self, v):
         return 0
 
+    def damping_force(self, velocity, v):
+        return None
+
     def operator(self, u, v, velocity=None):
         forms = (
             self.term(c, u, velocity, positive_part(c.projection(u)), v) for c in self.contacts
@@ -75,6 +78,9 @@ class GuardedFriction:
 
     def load(self, v):
         return self.problem.load(v)
+
+    def damping_force(self, velocity, v):
+        return self.problem.damping_force(velocity, v)
 
     def operator(self, u, v, velocity=None):
         return self.problem.operator(u, v, velocity, self.reference)

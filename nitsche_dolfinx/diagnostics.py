@@ -345,6 +345,12 @@ class Diagnostics:
         """Take ``values`` as the diagnostics of ``level`` (None: forget them)."""
         self._level = None if values is None else (level, values)
 
+    @property
+    def stiffness_matrix(self):
+        """The bulk stiffness K as a PETSc matrix (None when the stepper gives the elastic
+        energy itself)."""
+        return self._stiffness if self._elastic is None else None
+
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""
         x = compat.petsc_vector(function)

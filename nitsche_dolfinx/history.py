@@ -20,6 +20,7 @@ import numpy as np
 
 __all__ = [
     "BALANCE_COLUMNS",
+    "DAMPING_COLUMNS",
     "added_columns",
     "centre_of_mass_columns",
     "contact_columns",
@@ -52,6 +53,10 @@ HISTORY_COLUMNS = ("t", *STATE_COLUMNS, "newton_iterations", "step_seconds", *ST
 #: The energy balance of a step: D^n, the work of the friction term on the step's
 #: increment, and E_Theta^{n+1} - E_Theta^n + D^n (both 0 at t = 0).
 BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
+#: With Rayleigh damping: the energy damping dissipated since t = 0, the sum of the steps'
+#: tau (v_m, C v_m) (docs/method.md section 14); a step's share also enters
+#: ``energy_balance_residual``.
+DAMPING_COLUMNS = ("damping_dissipation",)
 #: Columns of ``history.csv`` for the friction demos: the balance after the listed ones.
 FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
 #: The columns of a run with a moving obstacle: the work the obstacles did since t = 0 and

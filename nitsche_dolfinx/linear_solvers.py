@@ -153,9 +153,14 @@ def courant_number(problem, dt: float) -> float:
     """c tau / h_min: the time step over the time a pressure wave, of speed
     c = sqrt((lambda + 2 mu) / rho) (the fastest material's), takes to cross the smallest
     cell (h_T its largest vertex distance; collective). Below about 1 the mass dominates
-    the step's Jacobian."""
+    the step's Jacobian. With stiffness damping beta the Jacobian weighs the stiffness by
+    tau^2 + 2 beta tau instead of tau^2 (Crank-Nicolson and hybrid: tau^2/4 K + beta tau/2 K;
+    docs/method.md section 14): tau is then sqrt(tau^2 + 2 beta tau)."""
     speed = max(math.sqrt((m.lmbda + 2.0 * m.mu) / m.rho) for m in problem.materials)
-    return speed * float(dt) / _smallest_cell(problem)
+    dt = float(dt)
+    if problem.damping is not None and problem.damping.values[1] > 0.0:
+        dt = math.sqrt(dt * dt + 2.0 * problem.damping.values[1] * dt)
+    return speed * dt / _smallest_cell(problem)
 
 
 def contact_stiffness(problem, dt: float) -> float:

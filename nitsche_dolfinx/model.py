@@ -27,6 +27,7 @@ from mpi4py import MPI
 
 from . import compat
 from .contact import NitscheContact, PenaltyContact
+from .damping import RayleighDamping
 from .dirichlet import DirichletCondition
 from .expressions import has_text, vector_expression
 from .mass import MassMatrix
@@ -168,6 +169,8 @@ class ContactProblem:
         self._tractions: list[tuple[int, ProblemValue]] = []
         self.initial_displacement = None
         self.initial_velocity = None
+        #: Rayleigh damping (:meth:`set_damping`), None without it (no term in the forms).
+        self.damping: RayleighDamping | None = None
         #: The time t of the problem's data in UFL, a ``fem.Constant`` that the steppers move
         #: (:meth:`set_time`).
         self.t = fem.Constant(mesh, 0.0)
@@ -356,6 +359,29 @@ class ContactProblem:
 
     def _suggested_gamma0(self) -> str:
         return "about 1e-3 / E" if self.gamma0_scaling == "absolute" else "about 1e-3"
+
+    def set_damping(self, alpha: float = 0.0, beta: float = 0.0) -> RayleighDamping:
+        """Rayleigh damping C = alpha M + beta K (docs/method.md section 14): M the
+        problem's mass (consistent, lumped or redistributed), K the bulk stiffness a(u, v)
+        (not the Nitsche terms). alpha >= 0 [1/time], beta >= 0 [time]; the modal damping
+        ratio at the circular frequency omega is alpha / (2 omega) + beta omega / 2. The
+        coefficients are the ``fem.Constant`` attributes ``damping.alpha`` and
+        ``damping.beta`` (runtime values). Set before the simulation is built."""
+        require(
+            self.method != "mixed", "method", self.method,
+            "damping is for Nitsche's and the penalty method (not the mixed one)",
+        )  # fmt: skip
+        damping = RayleighDamping(self.mesh, alpha, beta)
+        if self.damping is None:
+            self.damping = damping
+        else:  # the same constants: compiled forms stay valid
+            self.damping.alpha.value, self.damping.beta.value = damping.values
+        return self.damping
+
+    def damping_force(self, velocity, v):
+        """(C velocity, v) in UFL without a diagonal mass's part (which the solver adds), or
+        None without damping (the forms then have no damping term at all)."""
+        return None if self.damping is None else self.damping.force(self, velocity, v)
 
     def set_initial_conditions(self, displacement=None, velocity=None) -> None:
         """Initial displacement u0 and velocity v0 (zero when omitted).

@@ -40,6 +40,7 @@ OWNERS = {
     "Material": Material,
     "Material.from_lame": Material.from_lame,
     "ContactProblem.set_initial_conditions": ContactProblem.set_initial_conditions,
+    "ContactProblem.set_damping": ContactProblem.set_damping,
 }
 
 #: A flag's default that is the demo's own (given to :func:`~nitsche_dolfinx.arguments.
@@ -64,6 +65,12 @@ class Parameter:
     flag_default: str | None = None  # in words; None: the TOML default
     api_default: str | None = None  # the API's default in words, when not a plain value
     aliases: tuple[str, ...] = ()  # other names its errors carry
+    keyword: str | None = None  # the owner's keyword, when not ``name``
+
+    @property
+    def argument(self) -> str:
+        """The owner's keyword: :attr:`keyword`, or ``name``."""
+        return self.keyword or self.name
 
     @property
     def table(self) -> str | None:
@@ -84,13 +91,13 @@ class Parameter:
 
     def api(self) -> str:
         """The keyword with what takes it: ``ContactProblem(nitsche_theta=)``."""
-        return f"{self.owner}({self.name}=)"
+        return f"{self.owner}({self.argument}=)"
 
     def api_default_text(self) -> str:
         """The API's default, read from the owner's signature."""
         if self.api_default is not None:
             return self.api_default
-        default = inspect.signature(OWNERS[self.owner]).parameters[self.name].default
+        default = inspect.signature(OWNERS[self.owner]).parameters[self.argument].default
         if default is inspect.Parameter.empty:
             return "required"
         return "none" if default is None else toml_text(default)
@@ -170,6 +177,12 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("mu", "Material.from_lame", "[material] mu", None,
               _key("number", None, "shear modulus (not the friction coefficient, --mu)")),
     Parameter("rho", "Material", "[material] rho", None, _key("number", 1.0, "density")),
+    Parameter("damping_alpha", "ContactProblem.set_damping", "[damping] alpha", None,
+              _key("number", 0.0, "Rayleigh damping C = alpha M + beta K: alpha >= 0 "
+                   "[1/time], the mass-proportional part"), keyword="alpha"),
+    Parameter("damping_beta", "ContactProblem.set_damping", "[damping] beta", None,
+              _key("number", 0.0, "Rayleigh damping: beta >= 0 [time], the part "
+                   "proportional to the bulk stiffness"), keyword="beta"),
     Parameter("displacement", "ContactProblem.set_initial_conditions", "[initial] displacement",
               None, _key("value in x", None, "u0", shown="0"),
               aliases=("initial_displacement", "initial displacement")),
@@ -207,7 +220,7 @@ PARAMETERS: tuple[Parameter, ...] = (
                    "the demos, dt, step_cuts, momentum_x, ... and centre_of_mass_x, ... (1D: "
                    "momentum, centre_of_mass), contact_force_k and contact_area_k (the k-th "
                    "obstacle; a contact pair counts two), friction_dissipation, "
-                   "energy_balance_residual, the probes' names",
+                   "energy_balance_residual, damping_dissipation, the probes' names",
                    shown="those of the 2D/3D demos, then the probes"),
               api_default="HISTORY_COLUMNS"),
     Parameter("restart", "Simulation.run", None, "--restart",

@@ -213,6 +213,9 @@ SCHEMA: dict[str, Table] = {
         {"value": Key("value in time", REQUIRED, "the force per unit volume")},
     ),
     "initial": Table("the initial values", toml_keys("initial")),
+    "damping": Table(
+        "Rayleigh damping C = alpha M + beta K (docs/method.md section 14)", toml_keys("damping")
+    ),
     "region": Table(
         "a material for the cells tagged tag (the others take [material]; "
         "docs/method.md section 13)",

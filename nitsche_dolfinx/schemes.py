@@ -64,6 +64,9 @@ class Model(Protocol):
     def load(self, v):
         """L(t)(v), the loads at the time the scheme has set."""
 
+    def damping_force(self, velocity, v):
+        """(C velocity, v), Rayleigh damping (docs/method.md section 14), or None without it."""
+
 
 class TimeScheme:
     """Interface of a time scheme (see the module docstring).
@@ -88,7 +91,19 @@ class TimeScheme:
     def residual(self, model: Model, w, u, v, a, dt, test):
         """The residual form whose root is ``w``: the equation at t^{n+1}."""
         u1, v1, a1 = self.kinematics(u, v, a, w, dt)
-        return model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
+        form = model.inertia(a1, test) + model.operator(u1, test, v1) - model.load(test)
+        return self.damped(form, model, u, v, a, w, dt, test)
+
+    def damping_velocity(self, u, v, a, w, dt):
+        """The velocity of the step's damping force C v (docs/method.md section 14): that of
+        the equation's time level, v^{n+1}."""
+        return self.kinematics(u, v, a, w, dt)[1]
+
+    def damped(self, form, model: Model, u, v, a, w, dt, test):
+        """``form`` plus the model's damping force at :meth:`damping_velocity` (``form``
+        itself without damping: no term is added)."""
+        damping = model.damping_force(self.damping_velocity(u, v, a, w, dt), test)
+        return form if damping is None else form + damping
 
     def equation_time(self, t: float, dt: float) -> float:
         """The time at which the loads of the step's equation are evaluated."""
@@ -190,11 +205,17 @@ class HybridScheme(TimeScheme):
         # (u1 - u) / dt, without the round-off of subtracting u (amplified by 1/gamma_h
         # in the friction term, it would be the floor of the residual once sticking)
         mean_velocity = v + dt / 2 * w
-        return (
+        form = (
             model.inertia(w, test)
             + model.hybrid_operator(u, u1, test, mean_velocity)
             - model.load(test)
         )
+        return self.damped(form, model, u, v, a, w, dt, test)
+
+    def damping_velocity(self, u, v, a, w, dt):
+        """The step's mean velocity v^{n+1/2} = (u^{n+1} - u^n) / tau = v^n + tau/2 w: the
+        damping force C v^{n+1/2} keeps the energy identity (docs/method.md section 14)."""
+        return v + dt / 2 * w
 
     def equation_time(self, t, dt):
         return t + dt / 2

@@ -21,6 +21,7 @@ from dolfinx import fem
 
 from . import compat
 from .contact_terms import ContactTerms, contact_activity, contact_parts
+from .damping import DampingPower, DiagonalDamping
 from .diagnostics import Diagnostics
 from .dirichlet import DirichletDofs
 from .fields import ContactFields, LevelRefresh, OnBoundary, body_fields
@@ -79,7 +80,7 @@ def step_solver(
             not problem.pairs, "reuse_jacobian", reuse_jacobian,
             "contact between bodies assembles the Jacobian by parts: keep True",
         )  # fmt: skip
-        system = FormSystem(F, w, bcs, mass_diagonal=problem.mass_diagonal())
+        system = FormSystem(F, w, bcs, mass_diagonal=_mass_diagonal(problem, scheme, state))
         return SNESSolver.for_system(system, settings)
     activity, facet_parts = None, None
     if problem.contacts:  # lets the solver skip the contact Jacobian out of contact
@@ -91,10 +92,30 @@ def step_solver(
         ]
     coupling = _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs)
     forms = StepForms(F, None, activity, facet_parts, (u, v, a), coupling)
-    system = AffineSystem(forms, w, bcs, problem.mass_diagonal(), settings.matrix_type)
+    diagonal = _mass_diagonal(problem, scheme, state)
+    system = AffineSystem(forms, w, bcs, diagonal, settings.matrix_type)
     if bc_values is not None:
         system.prescribe(dirichlet_dofs, bc_values)
     return SNESSolver.for_system(system, settings)
+
+
+def _mass_diagonal(problem: ContactProblem, scheme: TimeScheme, state: tuple):
+    """The diagonal mass the solver adds (None: the consistent mass, in the forms); with
+    damping, with its alpha part at the scheme's damping velocity v_d(w) = v_0 + c w
+    (:class:`~nitsche_dolfinx.damping.DiagonalDamping`, docs/method.md section 14)."""
+    diagonal = problem.mass_diagonal()
+    if diagonal is None or problem.damping is None:
+        return diagonal
+    _, u, v, a, dt = state
+
+    def velocity():
+        arrays = (u.x.array, v.x.array, a.x.array)
+        return scheme.damping_velocity(*arrays, 0.0, float(dt.value))
+
+    def coefficient():
+        return scheme.damping_velocity(0.0, 0.0, 0.0, 1.0, float(dt.value))
+
+    return DiagonalDamping(diagonal, problem.damping.alpha, velocity, coefficient)
 
 
 def _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs) -> PairCoupling | None:
@@ -194,6 +215,16 @@ class NitscheStepper(TimeLevels):
         )  # fmt: skip
         self.diagnostics = Diagnostics(problem, self.u, self.v)
         self.friction_dissipation = 0.0
+        #: The energy dissipated by damping since t = 0, and by the last step (docs/method.md
+        #: section 14).
+        self.damping_dissipation, self._damping_step = 0.0, 0.0
+        self._damping_power = None
+        if problem.damping is not None:
+            moments = self.diagnostics.moments
+            self._damping_power = DampingPower(
+                problem.damping, moments.matrix.mult, self.diagnostics.stiffness_matrix,
+                self.comm,
+            )  # fmt: skip
         self._energy_before = None  # E_Theta^n of the last step
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
@@ -222,6 +253,7 @@ class NitscheStepper(TimeLevels):
             self._dirichlet,
             petsc_options,
             linear_solver,
+            velocity=self.v,
         )
 
     def state(self, columns=None) -> dict[str, float]:
@@ -232,11 +264,14 @@ class NitscheStepper(TimeLevels):
         if self._obstacles is not None:
             values.update(self._obstacles.values())
         values["friction_dissipation"] = self.friction_dissipation
+        dissipated = self.friction_dissipation + self._damping_step
         values["energy_balance_residual"] = (
             0.0
             if self._energy_before is None
-            else values["energy_theta"] - self._energy_before + self.friction_dissipation
+            else values["energy_theta"] - self._energy_before + dissipated
         )
+        if self._damping_power is not None:
+            values["damping_dissipation"] = self.damping_dissipation
         values["newton_iterations"] = self.newton_iterations
         values["step_seconds"] = self.step_seconds
         values["dt"] = self.last_dt
@@ -268,6 +303,7 @@ class NitscheStepper(TimeLevels):
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
         u1, v1, a1 = scheme.kinematics(u, v, a, self.w.x.array, dt)
+        damping = self._damping_work(v, v1, dt)  # (the kinematic v^{n+1}: the equation's)
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
             self.friction_dissipation = self._friction.work(u1 - u)
@@ -284,12 +320,24 @@ class NitscheStepper(TimeLevels):
             if sums is not None:
                 self._obstacles.restore(sums)
             raise
+        self._damping_step = damping
+        self.damping_dissipation += damping
         self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
         problem.move_obstacles(self.t)
         self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
+
+    def _damping_work(self, v: np.ndarray, v1: np.ndarray, dt: float) -> float:
+        """The energy damping dissipates over a step, tau (v_m, C v_m) with
+        v_m = (v^n + v^{n+1}) / 2 (docs/method.md section 14): the trapezoidal rule of the
+        power of the levels' forces C v^n and C v^{n+1} for theta and Newmark, the
+        midpoint force C v^{n+1/2} of the hybrid scheme; 0 without damping."""
+        if self._damping_power is None:
+            return 0.0
+        mean = (v + v1) / 2
+        return dt * self._damping_power(mean)
 
     def _set_step_size(self, dt: float) -> None:
         """Make the step's equation one for a step of size ``dt`` (its bulk Jacobian, in
@@ -378,8 +426,12 @@ class NitscheStepper(TimeLevels):
     def levels(self) -> dict[str, Any]:
         """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
         moved = self.solver.linear_tolerances.last_move
-        sums = {} if self._obstacles is None else self._obstacles.saved()
-        return {**super().levels(), "contact_set_moved": moved, **sums}
+        levels = {**super().levels(), "contact_set_moved": moved}
+        if self._obstacles is not None:
+            levels.update(self._obstacles.saved())
+        if self._damping_power is not None:  # the running total (docs/method.md section 14)
+            levels["damping_dissipation"] = self.damping_dissipation
+        return levels
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
@@ -388,6 +440,8 @@ class NitscheStepper(TimeLevels):
         self.diagnostics.remember(step_index, None)  # the loaded state's are computed anew
         self.newton_iterations = int(saved.get("newton_iterations", 0))
         self.step_seconds = 0.0
+        self.damping_dissipation = float(saved.get("damping_dissipation", 0.0))
+        self._damping_step = 0.0
         self.problem.set_time(t)
         self.problem.move_obstacles(t)
         if self._obstacles is not None:

@@ -16,6 +16,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from . import compat
+from .damping import DiagonalDamping
 from .linear_solvers import LinearSolver
 from .model import ContactProblem
 from .parameters import ParameterError, require
@@ -190,19 +191,25 @@ def check_pairs_apart(problem: ContactProblem, u: fem.Function) -> None:
 
 def initial_acceleration(
     problem: ContactProblem, a: fem.Function, stiffness, dirichlet, petsc_options=None,
-    linear_solver: LinearSolver | None = None,
+    linear_solver: LinearSolver | None = None, velocity: fem.Function | None = None,
 ) -> None:  # fmt: skip
-    """Solve M a0 = L(0) - ``stiffness`` for ``a`` (docs/method.md section 3), with a0 = 0
-    at the Dirichlet dofs (``dirichlet``, a :class:`DirichletDofs`) and at the massless
-    dofs of a redistributed mass, by the linear solver of the steps.
+    """Solve M a0 = L(0) - ``stiffness`` - C v0 for ``a`` (docs/method.md sections 3 and
+    14), with a0 = 0 at the Dirichlet dofs (``dirichlet``, a :class:`DirichletDofs`) and at
+    the massless dofs of a redistributed mass, by the linear solver of the steps.
 
-    ``stiffness(test)`` is the operator at u0 tested with ``test``."""
+    ``stiffness(test)`` is the operator at u0 tested with ``test``; ``velocity`` v0, for the
+    damping force C v0 (with damping)."""
     V = problem.V
     test = ufl.TestFunction(V)
     F0 = problem.inertia(a, test) + stiffness(test) - problem.load(test)
+    damped = problem.damping is not None and velocity is not None
+    if damped:
+        F0 = F0 + problem.damping_force(velocity, test)
     zero = fem.Function(V)
     bcs = dirichlet.boundary_conditions(zero)
     diagonal = problem.mass_diagonal()
+    if damped and diagonal is not None:  # alpha D v0 (docs/method.md section 14)
+        diagonal = DiagonalDamping(diagonal, problem.damping.alpha, lambda: velocity.x.array)
     if diagonal is not None:  # massless nodes (redistributed mass): no acceleration of their own
         bcs.append(fem.dirichletbc(zero, problem.massless_dofs(nodes=True)))
     a.x.array[:] = 0.0
@@ -223,7 +230,7 @@ def checkpoint_description(stepper) -> dict[str, Any]:
     problem = stepper.problem
     V = problem.V
     friction = problem.friction
-    return {
+    description = {
         "friction": 0.0 if friction is None else float(np.asarray(friction.value)),
         "dofs": int(V.dofmap.index_map.size_global * V.dofmap.index_map_bs),
         "dt": stepper.dt,
@@ -236,3 +243,6 @@ def checkpoint_description(stepper) -> dict[str, Any]:
         "nitsche_theta": float(np.asarray(problem.nitsche_theta.value)),
         "functions": sorted(stepper.checkpoint_functions()),
     }
+    if problem.damping is not None:  # (absent without damping: older checkpoints fit)
+        description["damping"] = list(problem.damping.values)
+    return description

@@ -33,6 +33,7 @@ from .assembly import (
     split_cell_integrals,
     with_facet_quadrature,
 )
+from .damping import DiagonalDamping
 from .facet_jacobian import ContactFacets, FacetJacobian
 from .jacobian_sum import JacobianSum
 
@@ -49,12 +50,23 @@ class _Base:
         self.F_forms, self.J_forms = Forms(F), Forms(self.J)
         self.comm = u.function_space.mesh.comm
         self._D, self._D_bc = None, None
+        # with damping, (1 + alpha c) D and the vector alpha D v_0 (docs/method.md section 14)
+        self._damped = mass_diagonal if isinstance(mass_diagonal, DiagonalDamping) else None
         if mass_diagonal is not None:  # a diagonal matrix D added: F(u) + D u and J + D
-            self._D = mass_diagonal
-            self._D_bc = mass_diagonal.copy()  # zero on Dirichlet rows: they stay identity
+            self._D = mass_diagonal if self._damped is None else self._damped.vector
+            self._D_bc = self._D.copy()  # zero on Dirichlet rows: they stay identity
             compat.set_bc(self._D_bc, self.bcs, None, 0.0)
         #: Whether the last Jacobian widened the sparsity of the matrices (a contact pair).
         self.grew = False
+
+    def _refresh_diagonal(self) -> None:
+        """A damped diagonal (:class:`~nitsche_dolfinx.damping.DiagonalDamping`) for the
+        current alpha and step."""
+        if self._damped is None:
+            return
+        self._damped.refresh()
+        self._D.copy(self._D_bc)
+        compat.set_bc(self._D_bc, self.bcs, None, 0.0)
 
     def _take(self, x: PETSc.Vec) -> None:
         """The iterate ``x`` into ``u`` (with its ghosts)."""
@@ -146,7 +158,10 @@ class FormSystem(_Base):
         self.F_forms.assemble_vector(b)
         self._lift(x, b)
         if self._D is not None:
+            self._refresh_diagonal()
             add_diagonal_product(b, self._D, x)
+        if self._damped is not None:
+            self._damped.add_offset(b)
         compat.set_bc(b, self.bcs, x, -1.0)
 
     def update_jacobian(self, A: PETSc.Mat, P: PETSc.Mat | None = None) -> bool:
@@ -265,6 +280,7 @@ class AffineSystem(_Base):
     def update_K(self) -> None:
         """Assemble K and K_bc for the current coefficients (the constant terms: again only
         when a constant in them changes, such as the time step)."""
+        self._refresh_diagonal()
         pairs = [(self.K_bc, self._J_constant, self.bcs, self._D_bc)]
         if self.K is not self.K_bc:
             pairs.append((self.K, self._J_cell, [], self._D))
@@ -281,7 +297,8 @@ class AffineSystem(_Base):
         self._constants_key = self._key()
 
     def _key(self) -> tuple:
-        return tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+        key = tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+        return key if self._damped is None else (*key, *self._damped.key())
 
     def constants_changed(self) -> bool:
         """Whether a constant of K_bc (the time step, gamma0, Theta, a material constant)
@@ -296,6 +313,8 @@ class AffineSystem(_Base):
         """Before a solve: the constant part F_cell(0) of the cell terms for the state of
         the time level, and the partners of the state across contact pairs."""
         self._cell_residual_at_zero()
+        if self._damped is not None:
+            self._damped.add_offset(self.F0)
         if self.coupling is not None:
             self.coupling.update()
 

@@ -32,6 +32,7 @@ from . import compat
 from .coercivity import coercivity_ratio, constant_value
 from .collective import sum_over_ranks
 from .contact import positive_part
+from .damping import DampingPower, damped_stable_step
 from .diagnostics import Diagnostics, assembled_matrix
 from .dirichlet import DirichletDofs
 from .explicit_mass import ConsistentMass, DiagonalMass, MasslessNodes
@@ -42,7 +43,7 @@ from .pair_coupling import add_partner_terms
 from .parameters import ParameterError, TimeStepping
 from .schemes import VerletScheme
 from .solver import SolverError
-from .stable_step import round_down, stable_step
+from .stable_step import largest_eigenvalue, round_down, stable_step
 from .stepping import (
     check_initial_gap,
     check_pairs_apart,
@@ -108,6 +109,11 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
         (problem.frictional, "friction",
          constant_value(problem.friction) if problem.frictional else None,
          "the verlet scheme is frictionless"),
+        (problem.damping is not None and problem.mass == "redistributed"
+         and problem.damping.values[1] > 0.0, "damping_beta",
+         None if problem.damping is None else problem.damping.values[1],
+         "the verlet scheme takes stiffness damping with the lumped or consistent mass (the "
+         "massless nodes' equilibrium has no damping force)"),
     ]  # fmt: skip
     for refused, name, value, why in refusals:
         if refused:
@@ -182,8 +188,14 @@ class ExplicitStepper(TimeLevels):
         problem.move_obstacles(0.0)
         affine = self._affine(affine)
         self._massless = MasslessNodes(problem, self.u, forces, affine, fixed)
-        #: The estimated stable step (:func:`~nitsche_dolfinx.stable_step.stable_step`)
-        self.stable_dt = stable_step(problem, affine, self._mass)
+        #: Rayleigh damping's force C x (docs/method.md section 14), None without it
+        self._damping = None
+        if problem.damping is not None:
+            self._damping = DampingPower(problem.damping, self._mass.mult, self._stiffness,
+                                         self.comm)  # fmt: skip
+        #: The estimated stable step (:func:`~nitsche_dolfinx.stable_step.stable_step`), with
+        #: stiffness damping :func:`~nitsche_dolfinx.damping.damped_stable_step`'s
+        self.stable_dt = self._stable_step(affine)
         #: The cell-wise coercivity bound of A_Thgamma (:func:`coercivity_ratio`): at 1 or
         #: above, A_Thgamma may be indefinite and the steps grow whatever dt.
         self.coercivity = coercivity_ratio(problem)
@@ -197,6 +209,8 @@ class ExplicitStepper(TimeLevels):
         )
         self._contact_fields = None
         self.friction_dissipation = 0.0
+        #: The energy dissipated by damping since t = 0, and by the last step
+        self.damping_dissipation, self._damping_step = 0.0, 0.0
         self._energy_before = None
         self._obstacles = None  # the work of moving obstacles (docs/method.md section 13)
         self._sums = None  # the obstacles' sums before the step (put back with the state)
@@ -211,7 +225,9 @@ class ExplicitStepper(TimeLevels):
         check_initial_gap(self.diagnostics.penetration.max(), problem.mesh)
         check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
-        self._accelerate(equilibrium=False)
+        self._accelerate(equilibrium=False, velocity=self.v.x.array)
+        #: C v at the current level: alpha M v^n + beta K v^{n-1/2} (C v0 at t = 0)
+        self._damping_force = self._level_damping_force(0.0)
         initial = self.diagnostics.energies()
         #: the largest energy scale up to the window (see _check_growth)
         self._settled = max(self._energy_scale(), abs(initial["potential"]))
@@ -315,15 +331,46 @@ class ExplicitStepper(TimeLevels):
         unit.destroy()
         return loads
 
-    def _accelerate(self, equilibrium: bool = True) -> None:
+    def _stable_step(self, affine: PETSc.Mat) -> float:
+        """The estimated stable step; with stiffness damping beta > 0, shrunk by
+        :func:`~nitsche_dolfinx.damping.damped_stable_step` with the bulk's own largest
+        eigenvalue (docs/method.md section 14)."""
+        stable = stable_step(self.problem, affine, self._mass)
+        beta = 0.0 if self._damping is None else self.problem.damping.values[1]
+        if beta == 0.0:
+            return stable
+        bulk = largest_eigenvalue(self.problem, self._stiffness, self._mass, with_contact=False)
+        return damped_stable_step(4.0 / stable**2, bulk, beta)
+
+    def _accelerate(self, equilibrium: bool = True, velocity=None, dt: float = 0.0) -> None:
         """a = M^-1 (L - B(u)) at the current u (and loads' time); with massless nodes and
         ``equilibrium``, their displacement first, from their equilibrium (not at t = 0:
-        the initial displacement is the user's, as for the implicit schemes)."""
+        the initial displacement is the user's, as for the implicit schemes).
+
+        With damping, the force C ``velocity`` is taken off, and a divided by
+        1 + alpha ``dt`` / 2 (docs/method.md section 14: at a step, ``velocity`` is
+        v^{n+1/2} and alpha M v^{n+1} = alpha M (v^{n+1/2} + dt/2 a^{n+1}); at t = 0, v0 and
+        ``dt`` = 0)."""
         if self._massless.active and equilibrium:
             force = self._massless.solve(self._assemble_force)
         else:
             force, _ = self._assemble_force()
+        if self._damping is not None:
+            force.axpy(-1.0, self._damping.force(velocity, self._work))
+            force.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self._mass.divide(force, self.a)
+        if self._damping is not None and dt > 0.0:
+            self.a.x.array[:] /= 1.0 + self.problem.damping.values[0] * dt / 2
+
+    def _level_damping_force(self, dt: float) -> PETSc.Vec | None:
+        """C v at the current level as the steps take it, alpha M v^n + beta K v^{n-1/2}
+        with v^{n-1/2} = v^n - ``dt``/2 a^n, ``dt`` the last step's size (0 at t = 0: C v0);
+        from the level's own arrays, so that a restart computes it to the bit (None without
+        damping)."""
+        if self._damping is None:
+            return None
+        half_step = self.v.x.array - dt / 2 * self.a.x.array
+        return self._damping.force(half_step, self._product.duplicate(), self.v.x.array)
 
     def step(self, t_new: float | None = None, cuts: int = 0) -> int:
         """One Verlet step to ``t_new`` (default: the next level); returns 0 (no Newton)."""
@@ -336,6 +383,7 @@ class ExplicitStepper(TimeLevels):
         self._energy_before = level["energy_theta"]
         self._check_drift(level["energy"], dt)
         scratch = self._scratch  # in place: no temporaries of the size of u
+        half_step = None if self._damping is None else v + dt / 2 * a  # v^{n+1/2}
         u += np.multiply(dt, v, out=scratch)
         u += np.multiply(dt**2 / 2, a, out=scratch)
         self._dirichlet.set_values(u, t_new)
@@ -344,7 +392,7 @@ class ExplicitStepper(TimeLevels):
         if self._obstacles is not None:
             self._sums = self._obstacles.saved()
         try:
-            self._accelerate()
+            self._accelerate(velocity=half_step, dt=dt)
         except SolverError as error:
             self._put_back()
             error.add_context(step=self.step_index + 1, t=t_new)
@@ -358,10 +406,25 @@ class ExplicitStepper(TimeLevels):
             v[dofs] = (u[dofs] - self._previous[0][dofs]) / dt
         massless_velocity(self._massless.local, self._previous[0], u, v, a, dt)
         self._check_growth(self._energy_scale(), dt, t_new)
+        if self._damping is not None:
+            self._damp(dt)
         self._arrive(t_new, dt, cuts)
         self.problem.move_obstacles(self.t)
         self.step_seconds = time.perf_counter() - start
         return 0
+
+    def _damp(self, dt: float) -> None:
+        """The step's damping dissipation, tau/4 (F^n + F^{n+1}) . (v^n + v^{n+1}) with
+        F the levels' damping forces (docs/method.md section 14): the damping's share of the
+        kinetic energy's change in the velocity update; added to the running total."""
+        force = self._level_damping_force(dt)
+        n = force.getLocalSize()
+        total = self._damping_force.array_r + force.array_r
+        local = dt / 4 * float(total @ (self._previous[1][:n] + self.v.x.array[:n]))
+        self._damping_step = float(sum_over_ranks(self.comm, [local])[0])
+        self.damping_dissipation += self._damping_step
+        self._damping_force.destroy()
+        self._damping_force = force
 
     def _check_drift(self, energy: float, dt: float) -> None:
         """Raise :class:`UnstableStep` at a level whose energy drifted from its initial value
@@ -433,8 +496,12 @@ class ExplicitStepper(TimeLevels):
             values.update(self._obstacles.values())
         values["friction_dissipation"] = 0.0
         values["energy_balance_residual"] = (
-            0.0 if self._energy_before is None else values["energy_theta"] - self._energy_before
+            0.0
+            if self._energy_before is None
+            else values["energy_theta"] - self._energy_before + self._damping_step
         )
+        if self._damping is not None:
+            values["damping_dissipation"] = self.damping_dissipation
         values["newton_iterations"] = 0
         values["step_seconds"] = self.step_seconds
         values["dt"] = self.last_dt
@@ -462,12 +529,24 @@ class ExplicitStepper(TimeLevels):
         return checkpoint_description(self)
 
     def levels(self) -> dict[str, Any]:
-        """The clock and the sums of the obstacles' work, for a checkpoint."""
-        sums = {} if self._obstacles is None else self._obstacles.saved()
-        return {**super().levels(), **sums}
+        """The clock, the sums of the obstacles' work and, with damping, its running total
+        and the last step's size (the level's damping force lags by half of it), for a
+        checkpoint."""
+        levels = super().levels()
+        if self._obstacles is not None:
+            levels.update(self._obstacles.saved())
+        if self._damping is not None:
+            levels["damping_dissipation"] = self.damping_dissipation
+            levels["damping_last_dt"] = self.last_dt
+        return levels
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
+        if self._damping is not None:  # the level's force F^n: v^{n-1/2} = v^n - tau/2 a^n
+            self.damping_dissipation = float(saved.get("damping_dissipation", 0.0))
+            self._damping_step = 0.0
+            self._damping_force.destroy()
+            self._damping_force = self._level_damping_force(saved.get("damping_last_dt", 0.0))
         self.step_seconds = 0.0
         self.problem.set_time(t)
         self.problem.move_obstacles(t)
