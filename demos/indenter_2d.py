@@ -26,7 +26,8 @@
 # $E_\Theta - E_\Theta(0) + D - W$ stays at zero to the solver's tolerance, the
 # balance this demo prints and draws.
 #
-# Run it with `python demos/indenter_2d.py` (serially or under `mpirun -n 2`);
+# Run it with `python demos/indenter_2d.py` (serially or under `mpirun -n 2`;
+# `--checkpoint-every K` and `--restart` continue a stopped run);
 # `demos/indenter_2d.toml` is the same run for `nitsche-dolfinx run`.
 
 # +
@@ -41,6 +42,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import ContactProblem, Material, MovingObstacle, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
+    add_run_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
@@ -60,6 +62,7 @@ from nitsche_dolfinx.reports import written_to
 
 WIDTH, HEIGHT = 0.2, 0.05  # the slab, m
 RADIUS, GAP = 0.05, 1e-4  # the indenter and its height above the slab at t = 0, m
+CENTRE = [0.0, 0.1001]  # the indenter's centre at t = 0: (0, H + R + g0)
 STEEL = Material(E=2e11, nu=0.3, rho=7850.0)
 GROUND, TOP = 1, 2  # facet tags
 #: the columns of the 2D demos, each contact's force and area (the indenter's first),
@@ -80,6 +83,7 @@ def make_parser() -> argparse.ArgumentParser:
     parser.add_argument("--nx", type=int, default=80, help="cells along the slab (ny = nx / 4)")
     parser.add_argument("--speed", type=finite_float, default=10.0, help="the indenter's speed")
     parser.add_argument("--out", default=os.path.join("out", "indenter_2d"), help="output folder")
+    add_run_arguments(parser)
     add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser
 
@@ -100,7 +104,7 @@ def indenter_problem(args) -> ContactProblem:
         nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
         mass=scheme_mass(args),
     )  # fmt: skip
-    cylinder = SphereObstacle([0.0, HEIGHT + RADIUS + GAP], RADIUS)
+    cylinder = SphereObstacle(CENTRE, RADIUS)
     speed = args.speed
     problem.add_obstacle(MovingObstacle(cylinder, translation=lambda t: [0.0, -speed * t]), TOP)
     problem.add_obstacle(PlaneObstacle([0.0, 0.0], [0.0, 1.0]), GROUND)
@@ -123,8 +127,9 @@ def main(argv: list[str] | None = None) -> None:
         args.dt = step_taken(simulation, args.quiet)  # --dt auto: the verlet scheme's step
         snapshot = Snapshot(at=simulation.t_end)
         history = simulation.run(
-            out=args.out, columns=COLUMNS, output_every=args.output_every, callback=snapshot
-        )
+            out=args.out, columns=COLUMNS, output_every=args.output_every, callback=snapshot,
+            checkpoint_every=args.checkpoint_every, restart=args.restart,
+        )  # fmt: skip
     if MPI.COMM_WORLD.rank != 0:
         return
     print(f"{simulation.dofs} DOFs")

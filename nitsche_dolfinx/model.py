@@ -484,11 +484,12 @@ class ContactProblem:
 
     @property
     def autonomous(self) -> bool:
-        """Whether no load and no Dirichlet value depends on t (the energy is then kept, or
-        dissipated, by the contact)."""
+        """Whether no load, no Dirichlet value and no obstacle depends on t (the energy is
+        then kept, or dissipated, by the contact)."""
         values = [*self._body_forces, *(t for _, t in self._tractions),
                   *(c.value for c in self.dirichlet)]  # fmt: skip
-        return not any(value.time_dependent for value in values)
+        moving = bool(self.moving_contacts)
+        return not moving and not any(value.time_dependent for value in values)
 
     @property
     def loads_in_time(self) -> bool:

@@ -466,10 +466,12 @@ class ExplicitStepper(TimeLevels):
     def _check_growth(self, energy: float, dt: float, t_new: float) -> None:
         """Raise :class:`UnstableStep` (the state put back to t^n) on a blow-up: the energy
         scale (:meth:`_energy_scale`) not finite, or above :data:`BLOWUP_FACTOR` times its
-        largest value up to :data:`BLOWUP_WINDOW` steps before, or the loads' potential at
-        t = 0 (a body at rest may start moving)."""
+        largest value up to :data:`BLOWUP_WINDOW` steps before, the loads' potential at
+        t = 0 (a body at rest may start moving), or the work moving obstacles did."""
         recent = self._recent
         reference = self._settled  # up to the window before: a blow-up cannot raise it
+        if self._obstacles is not None:  # what moving obstacles put in (before the step)
+            reference = max(reference, abs(self._sums["obstacle_work"]))
         if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
             recent.append(energy)
             if len(recent) > BLOWUP_WINDOW:

@@ -85,6 +85,12 @@ CASES = {
         ["two_balls_3d.py", "--t-end", "1.5", *COARSE_FLAGS, "--no-compare"],
         "",
     ),
+    "indenter_2d": (
+        "indenter_2d.toml",
+        {"t_end = 1e-4": "t_end = 3e-5", "nx = 80": "nx = 16", "ny = 20": "ny = 4"},
+        ["indenter_2d.py", "--t-end", "3e-5", "--nx", "16"],
+        "",
+    ),
     "ball_on_slab_3d": (
         "ball_on_slab_3d.toml",
         {"t_end = 15.0": "t_end = 2.0", "dt = 0.1": "dt = 1.0",
