@@ -307,6 +307,8 @@ def load_state(stepper, folder: str, columns=None) -> SavedState:
     functions = stepper.checkpoint_functions()
     first_space = next(iter(functions.values())).function_space
     for name, function in functions.items():
+        if name not in arrays:  # a Function a checkpoint of an older version did not keep
+            continue
         key = _points_key(name, function, first_space)
         index = _matching_nodes(stepper.comm, folder, arrays[key], function.function_space)
         bs = function.function_space.dofmap.index_map_bs

@@ -60,6 +60,7 @@ from .history import (
     FRICTION_HISTORY_COLUMNS,
     HISTORY_COLUMNS,
     OBSTACLE_COLUMNS,
+    WORK_COLUMNS,
 )
 from .keys import KINDS
 from .mesh_generators import GENERATOR_KEYS, check_generator
@@ -70,6 +71,7 @@ from .parameters import OutputParameters, ParameterError, TimeStepping
 from .schema import FACET_SELECTORS, PROBE_QUANTITIES, SCHEMA
 from .schemes import SCHEMES
 from .valueforms import check_field_value, check_time_value
+from .work import reaction_columns
 
 try:  # an optional dependency: Python >= 3.11 has tomllib, before it the tomli package
     import tomllib
@@ -416,6 +418,11 @@ def history_columns(config: dict, simulation) -> list[str]:
     if columns is not None:
         return list(columns)
     base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
-    work = OBSTACLE_COLUMNS if simulation.problem.moving_contacts else ()
-    damping = DAMPING_COLUMNS if simulation.problem.damping is not None else ()
-    return [*base, *work, *damping, *(probe["name"] for probe in config.get("probe", []))]
+    problem = simulation.problem
+    work = OBSTACLE_COLUMNS if problem.moving_contacts else ()
+    damping = DAMPING_COLUMNS if problem.damping is not None else ()
+    tags = sorted({condition.tag for condition in problem.dirichlet})
+    supports = reaction_columns(tags, problem.gdim)
+    balance = WORK_COLUMNS if tags or work else ()
+    probes = (probe["name"] for probe in config.get("probe", []))
+    return [*base, *work, *damping, *supports, *balance, *probes]

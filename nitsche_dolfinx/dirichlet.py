@@ -64,6 +64,9 @@ class DirichletDofs:
         #: Each Dirichlet dof once (sorted).
         self.prescribed, last = np.unique(every, return_index=True)
         self._last = len(every) - 1 - last  # its last place among the conditions' dofs
+        tags = [np.full(len(dofs), c.tag) for _, dofs, c in self.conditions]
+        #: The tag of the condition that prescribes each dof of :attr:`prescribed`.
+        self.prescribed_tags = np.concatenate(tags or [[]]).astype(np.int64)[self._last]
         # the values in space: interpolated on a cell of each of their facets only (one
         # holds every dof of the facet), and once when they do not depend on t
         self._cells = [

@@ -28,6 +28,7 @@ __all__ = [
     "FRICTION_HISTORY_COLUMNS",
     "HISTORY_COLUMNS",
     "OBSTACLE_COLUMNS",
+    "WORK_COLUMNS",
     "STATE_COLUMNS",
     "STEP_COLUMNS",
     "History",
@@ -62,6 +63,10 @@ FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
 #: The columns of a run with a moving obstacle: the work the obstacles did since t = 0 and
 #: the energy the contact terms dissipated since t = 0 (docs/method.md section 13).
 OBSTACLE_COLUMNS = ("obstacle_work", "contact_dissipation")
+#: The work of loads, supports and moving obstacles since t = 0, and the energy balance:
+#: the internal energy's change plus what was dissipated, less that work
+#: (docs/method.md section 13).
+WORK_COLUMNS = ("work", "energy_balance")
 
 
 def _by_component(name: str, gdim: int) -> tuple[str, ...]:

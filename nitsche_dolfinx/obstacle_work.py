@@ -94,14 +94,16 @@ class ObstacleWork:
                     work = work + _turned_normal(contact, u_old, u_new, hybrid) * contact.ds
             stored = (positive_part(P_new) ** 2 - positive_part(P_old) ** 2) / 2
             dissipation = dissipation + (force * change - stored) / contact.gamma_h * contact.ds
-        self._forms = (fem.form(work), fem.form(dissipation))
+        # (no work without a moving obstacle: no form)
+        self._forms = (None if work == 0 else fem.form(work), fem.form(dissipation))
         self._comm = problem.mesh.comm
         self.work, self.dissipation = 0.0, 0.0
 
     def step(self) -> None:
         """Add the step's work and dissipation (u_old and u_new hold u^n and u^{n+1}, the
         obstacles are at the step's levels)."""
-        self.work += assemble_global(self._forms[0], self._comm)
+        if self._forms[0] is not None:
+            self.work += assemble_global(self._forms[0], self._comm)
         self.dissipation += assemble_global(self._forms[1], self._comm)
 
     def values(self) -> dict[str, float]:

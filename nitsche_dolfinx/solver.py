@@ -127,6 +127,10 @@ class SNESSolver:
         )
         self.convergence = ConvergenceTest(self.linear_tolerances, self.petsc.user_atol)
         self.snes.setConvergenceTest(self.convergence)
+        #: A norm of the forces that the equation balances (the loads', the supports'), a
+        #: floor of its scale: a body at rest in equilibrium has F(0) and F(u_0) of
+        #: round-off, and its solve converges against this scale (0: none known).
+        self.force_scale = 0.0
         self._line_search_type = self.petsc.line_search_type
 
     def _after_jacobian(self, ksp, changed: bool, active: bool) -> None:
@@ -154,7 +158,8 @@ class SNESSolver:
         self._new_coefficients()
         # ||F(u_0)|| is SNES's first residual: the convergence test takes it from there
         full_steps = self._line_search_type == "basic"
-        self.convergence.start(self.petsc.residual_norm(at_zero=True), atol, full_steps)
+        zero_norm = max(self.petsc.residual_norm(at_zero=True), self.force_scale)
+        self.convergence.start(zero_norm, atol, full_steps)
         start = self.u.x.array.copy()
         reason, iterations = self._run()
         failed = reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE

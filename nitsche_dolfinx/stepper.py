@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
 
 from . import compat
 from .contact_terms import ContactTerms, contact_activity, contact_parts
@@ -46,6 +48,7 @@ from .stepping import (
 )
 from .systems import AffineSystem, FormSystem, StepForms
 from .timelevels import TimeLevels
+from .work import BalanceSums, ExternalWork
 
 __all__ = ["NitscheStepper", "step_solver"]
 
@@ -162,7 +165,7 @@ def _check_scheme(problem: ContactProblem, scheme: TimeScheme, dt: float) -> Non
         )
 
 
-class NitscheStepper(TimeLevels):
+class NitscheStepper(TimeLevels, BalanceSums):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` with Nitsche or penalty
     contact by a time scheme: one SNES solve per step.
 
@@ -230,11 +233,22 @@ class NitscheStepper(TimeLevels):
         self._friction = FrictionOutput(self, dt_c) if problem.frictional else None
         self._contact_fields = None  # ContactFields, once the output asks for them
         self._massless = problem.massless_dofs()
-        self._obstacles = None  # the work of moving obstacles (docs/method.md section 13)
-        if problem.moving_contacts:
+        # the energy balance (docs/method.md section 13): the obstacles' work and the contact
+        # dissipation, the work of the loads and the supports, the supports' reactions
+        self._obstacles = None
+        if any(contact not in problem.pairs for contact in problem.contacts):
             self._u_new = fem.Function(V)
             self._obstacles = ObstacleWork(problem, scheme, self.u, self._u_new)
+        self._external = None
+        if self._dirichlet or problem.has_loads:
+            self._external = ExternalWork(
+                problem, self._dirichlet, isinstance(scheme, HybridScheme)
+            )
+            self._load_form = fem.form(problem.load(ufl.TestFunction(V)))
+            self._loads = None  # the loads' vector while they do not depend on t
+        self._friction_total = 0.0  # the friction dissipation since t = 0
         self._initialize(petsc_options, linear_solver)
+        self._internal_energy0 = self._internal_energy()
 
     def _initialize(self, petsc_options, linear_solver) -> None:
         """u0, v0 and the consistent initial acceleration M a0 = L(0) - B(u0)."""
@@ -246,7 +260,7 @@ class NitscheStepper(TimeLevels):
         check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
         problem.move_obstacles(0.0)
-        initial_acceleration(
+        residual = initial_acceleration(
             problem,
             self.a,
             lambda test: problem.operator(self.u, test, self.v),
@@ -255,14 +269,43 @@ class NitscheStepper(TimeLevels):
             linear_solver,
             velocity=self.v,
         )
+        if self._external is not None:
+            self._external.start(residual[self._external.dofs], self._load_vector())
+
+    def _load_vector(self) -> np.ndarray | None:
+        """The loads' vector L(t) at the problem's time (owned dofs), None without loads;
+        assembled once when the loads do not depend on t."""
+        if not self.problem.has_loads:
+            return None
+        if self._loads is not None and not self.problem.loads_in_time:
+            return self._loads
+        vector = compat.create_vector(self.problem.V)
+        with vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(vector, self._load_form)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._loads = vector.array_r.copy()
+        vector.destroy()
+        return self._loads
+
+    def _reactions(self) -> np.ndarray:
+        """The step's equation's residual at its solution, at the owned Dirichlet dofs: the
+        supports' reactions (docs/method.md section 13)."""
+        system = self.solver.system
+        x = compat.petsc_vector(self.w).copy()
+        b = x.duplicate()
+        system.assemble_residual(x, b, conditions=False)
+        reactions = b.array_r[self._external.dofs].copy()
+        for vector in (x, b):
+            vector.destroy()
+        return reactions
 
     def state(self, columns=None) -> dict[str, float]:
         """Diagnostics at the current time level, identical on every rank: those of every
         level, and the optional ones (:class:`~nitsche_dolfinx.diagnostics.Diagnostics`)
         that ``columns`` name (None: all)."""
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
-        if self._obstacles is not None:
-            values.update(self._obstacles.values())
+        values.update(self._balance_columns())
         values["friction_dissipation"] = self.friction_dissipation
         dissipated = self.friction_dissipation + self._damping_step
         values["energy_balance_residual"] = (
@@ -296,6 +339,8 @@ class NitscheStepper(TimeLevels):
         self._energy_before = self._energy_theta()
         problem.move_obstacles(self.t, t_new)
         self.w.x.array[:] = a  # initial guess: the last acceleration
+        if self._external is not None:  # at rest in equilibrium, the scale of the equation
+            self.solver.force_scale = self._external.force_norm()
         try:
             iterations = self._solve()
         except SolverError as error:
@@ -307,21 +352,23 @@ class NitscheStepper(TimeLevels):
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
             self.friction_dissipation = self._friction.work(u1 - u)
-        sums = None if self._obstacles is None else self._obstacles.saved()
+        sums = self._running_sums()  # to put back if the step is refused
         if self._obstacles is not None:
             self._u_new.x.array[:] = u1
             self._obstacles.step()
+        if self._external is not None:  # the equation's reactions and loads, before u moves
+            self._external.step(u1 - u, self._reactions(), self._load_vector())
         for previous, new, array in zip(self._previous, (u1, v1, a1), (u, v, a)):
             previous[:], array[:] = array, new
         try:
             self._check_energy_control(iterations, t_new)
         except UncontrolledStep:
             problem.move_obstacles(self.t)
-            if sums is not None:
-                self._obstacles.restore(sums)
+            self._restore_sums(sums)
             raise
         self._damping_step = damping
         self.damping_dissipation += damping
+        self._friction_total += self.friction_dissipation
         self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
         problem.move_obstacles(self.t)
@@ -418,7 +465,8 @@ class NitscheStepper(TimeLevels):
             self._friction.update_fields()
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
-        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        return {**functions, **self._balance_functions()}
 
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
@@ -426,9 +474,7 @@ class NitscheStepper(TimeLevels):
     def levels(self) -> dict[str, Any]:
         """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
         moved = self.solver.linear_tolerances.last_move
-        levels = {**super().levels(), "contact_set_moved": moved}
-        if self._obstacles is not None:
-            levels.update(self._obstacles.saved())
+        levels = {**super().levels(), "contact_set_moved": moved, **self._saved_sums()}
         if self._damping_power is not None:  # the running total (docs/method.md section 14)
             levels["damping_dissipation"] = self.damping_dissipation
         return levels
@@ -444,5 +490,4 @@ class NitscheStepper(TimeLevels):
         self._damping_step = 0.0
         self.problem.set_time(t)
         self.problem.move_obstacles(t)
-        if self._obstacles is not None:
-            self._obstacles.restore(saved)
+        self._load_sums(saved, self._load_vector() if self._external is not None else None)

@@ -13,7 +13,9 @@ from typing import Any, Protocol
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from . import compat
 from .damping import DiagonalDamping
@@ -192,13 +194,15 @@ def check_pairs_apart(problem: ContactProblem, u: fem.Function) -> None:
 def initial_acceleration(
     problem: ContactProblem, a: fem.Function, stiffness, dirichlet, petsc_options=None,
     linear_solver: LinearSolver | None = None, velocity: fem.Function | None = None,
-) -> None:  # fmt: skip
+) -> np.ndarray:  # fmt: skip
     """Solve M a0 = L(0) - ``stiffness`` - C v0 for ``a`` (docs/method.md sections 3 and
     14), with a0 = 0 at the Dirichlet dofs (``dirichlet``, a :class:`DirichletDofs`) and at
     the massless dofs of a redistributed mass, by the linear solver of the steps.
 
     ``stiffness(test)`` is the operator at u0 tested with ``test``; ``velocity`` v0, for the
-    damping force C v0 (with damping)."""
+    damping force C v0 (with damping). Returns the equation's residual M a0 + ``stiffness``
+    + C v0 - L(0) (owned dofs): at the Dirichlet dofs, the supports' reactions at t = 0
+    (docs/method.md section 13)."""
     V = problem.V
     test = ufl.TestFunction(V)
     F0 = problem.inertia(a, test) + stiffness(test) - problem.load(test)
@@ -221,8 +225,22 @@ def initial_acceleration(
         mass_diagonal=diagonal,
         linear_solver=linear_solver,
     )
+    if problem.has_loads:  # a body in equilibrium at rest: F(0) is round-off of these
+        loads = compat.create_vector(V)
+        with loads.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(loads, fem.form(problem.load(test)))
+        loads.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        solver.force_scale = loads.norm()
+        loads.destroy()
     solver.solve()
+    x, b = compat.petsc_vector(a).copy(), compat.create_vector(V)
+    solver.system.assemble_residual(x, b, conditions=False)
+    residual = b.array_r.copy()
+    for vector in (x, b):
+        vector.destroy()
     solver.destroy()
+    return residual
 
 
 def checkpoint_description(stepper) -> dict[str, Any]:

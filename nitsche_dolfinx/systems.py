@@ -82,12 +82,13 @@ class _Base:
         dofs = np.asarray(dofs, dtype=np.int64)
         self._bc_values = (dofs[dofs < owned], values)
 
-    def _lift(self, x: PETSc.Vec, b: PETSc.Vec) -> None:
+    def _lift(self, x: PETSc.Vec, b: PETSc.Vec, conditions: bool = True) -> None:
         """The Dirichlet lifting of b, b += J (g - x) near the Dirichlet dofs, then its ghosts
         added to their owners. Without conditions (lifting would still pack the
         coefficients of J), or where x is g already (J (g - x) adds zeros: the iterates
-        of Newton but the first), nothing is lifted."""
-        if self.bcs and not self._prescribed(x):
+        of Newton but the first), or for F's own rows (``conditions`` False), nothing is
+        lifted."""
+        if conditions and self.bcs and not self._prescribed(x):
             self.J_forms.apply_lifting(b, self.bcs, x, -1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
@@ -150,19 +151,23 @@ class FormSystem(_Base):
         """A matrix with the sparsity of J, of PETSc type ``matrix_type``."""
         return self._matrix_options(self.J_forms.create_matrix(matrix_type))
 
-    def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False) -> None:
-        """b = F(x) (``zero``: x is zero)."""
+    def assemble_residual(
+        self, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False, conditions: bool = True
+    ) -> None:
+        """b = F(x) (``zero``: x is zero; ``conditions``: the Dirichlet rows replaced by
+        x - g, else F's own, where the reactions are)."""
         self._take(x)
         with b.localForm() as b_local:
             b_local.set(0.0)
         self.F_forms.assemble_vector(b)
-        self._lift(x, b)
+        self._lift(x, b, conditions)
         if self._D is not None:
             self._refresh_diagonal()
             add_diagonal_product(b, self._D, x)
         if self._damped is not None:
             self._damped.add_offset(b)
-        compat.set_bc(b, self.bcs, x, -1.0)
+        if conditions:
+            compat.set_bc(b, self.bcs, x, -1.0)
 
     def update_jacobian(self, A: PETSc.Mat, P: PETSc.Mat | None = None) -> bool:
         """A = J at ``u``; always a change."""
@@ -344,8 +349,11 @@ class AffineSystem(_Base):
         self.F0.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.u.x.array[:] = saved
 
-    def assemble_residual(self, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False) -> None:
-        """b = F(x) = K x + F_cell(0) + F_facet(x) (``zero``: x is zero, K x is skipped)."""
+    def assemble_residual(
+        self, x: PETSc.Vec, b: PETSc.Vec, zero: bool = False, conditions: bool = True
+    ) -> None:
+        """b = F(x) = K x + F_cell(0) + F_facet(x) (``zero``: x is zero, K x is skipped;
+        ``conditions``: the Dirichlet rows replaced by x - g, else F's own)."""
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         if self.coupling is not None:
             self.coupling.update(x)
@@ -355,7 +363,7 @@ class AffineSystem(_Base):
             b_local.set(0.0)
         if self.F_facet is not None:
             self.F_facet.assemble_vector(b)
-        self._lift(x, b)
+        self._lift(x, b, conditions)
         if zero:
             b.axpy(1.0, self.F0)
         else:
@@ -363,7 +371,8 @@ class AffineSystem(_Base):
             b.axpy(1.0, self._Kx)
         if self.coupling is not None:
             self.coupling.add_residual(b)
-        compat.set_bc(b, self.bcs, x, -1.0)
+        if conditions:
+            compat.set_bc(b, self.bcs, x, -1.0)
 
     def update_jacobian(self, A: PETSc.Mat, P: PETSc.Mat | None = None) -> bool:
         """A = K_bc + B (+ the coupling) if the terms changed since the last Jacobian (always

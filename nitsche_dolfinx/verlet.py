@@ -52,6 +52,7 @@ from .stepping import (
     massless_velocity,
 )
 from .timelevels import TimeLevels
+from .work import BalanceSums, ExternalWork
 
 __all__ = ["ExplicitStepper", "UnstableStep", "VerletScheme"]
 
@@ -120,7 +121,7 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
             raise ParameterError(name, value, why)
 
 
-class ExplicitStepper(TimeLevels):
+class ExplicitStepper(TimeLevels, BalanceSums):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme: the
     force at u^{n+1} assembled as a vector, divided by the mass (a diagonal, or the
     consistent one by CG: :mod:`~nitsche_dolfinx.explicit_mass`)."""
@@ -212,11 +213,17 @@ class ExplicitStepper(TimeLevels):
         #: The energy dissipated by damping since t = 0, and by the last step
         self.damping_dissipation, self._damping_step = 0.0, 0.0
         self._energy_before = None
-        self._obstacles = None  # the work of moving obstacles (docs/method.md section 13)
-        self._sums = None  # the obstacles' sums before the step (put back with the state)
-        if problem.moving_contacts:
-            self._u_old = fem.Function(V)
+        # the energy balance (docs/method.md section 13): the obstacles' work and the contact
+        # dissipation, the work of the loads and the supports, the supports' reactions
+        self._sums = None  # the sums before the step (put back with the state)
+        self._u_old = fem.Function(V)
+        if any(contact not in problem.pairs for contact in problem.contacts):
             self._obstacles = ObstacleWork(problem, scheme, self._u_old, self.u)
+        if self._dirichlet or problem.has_loads:
+            self._external = ExternalWork(problem, self._dirichlet, midpoint=False)
+            self._traction_form = fem.form(problem.traction_load(test)) if tractions else None
+            self._traction_loads = None  # their vector while they do not depend on t
+        self._level_reactions = None  # -F at the Dirichlet dofs of the last force evaluation
         self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
         self._scratch = np.empty_like(self.u.x.array)
         interpolate_initial(self.u, problem.initial_displacement, problem.gdim)
@@ -226,6 +233,9 @@ class ExplicitStepper(TimeLevels):
         check_pairs_apart(problem, self.u)
         problem.set_time(0.0)
         self._accelerate(equilibrium=False, velocity=self.v.x.array)
+        if self._external is not None:
+            self._external.start(self._level_reactions, self._load_vector())
+        self._internal_energy0 = self._internal_energy()
         #: C v at the current level: alpha M v^n + beta K v^{n-1/2} (C v0 at t = 0)
         self._damping_force = self._level_damping_force(0.0)
         initial = self.diagnostics.energies()
@@ -358,6 +368,8 @@ class ExplicitStepper(TimeLevels):
         if self._damping is not None:
             force.axpy(-1.0, self._damping.force(velocity, self._work))
             force.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        if self._external is not None:  # the supports hold their dofs: R = -F there
+            self._level_reactions = -force.array_r[self._external.dofs]
         self._mass.divide(force, self.a)
         if self._damping is not None and dt > 0.0:
             self.a.x.array[:] /= 1.0 + self.problem.damping.values[0] * dt / 2
@@ -389,17 +401,19 @@ class ExplicitStepper(TimeLevels):
         self._dirichlet.set_values(u, t_new)
         self.problem.set_time(t_new)
         self.problem.move_obstacles(self.t, t_new)
-        if self._obstacles is not None:
-            self._sums = self._obstacles.saved()
+        self._sums = self._sums_now()
         try:
             self._accelerate(velocity=half_step, dt=dt)
         except SolverError as error:
             self._put_back()
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
+        self._u_old.x.array[:] = self._previous[0]
         if self._obstacles is not None:
-            self._u_old.x.array[:] = self._previous[0]
             self._obstacles.step()
+        if self._external is not None:
+            self._external.step(u - self._previous[0], self._level_reactions,
+                                self._load_vector())  # fmt: skip
         v += np.multiply(dt / 2, np.add(self._previous[2], a, out=scratch), out=scratch)
         if self._dirichlet:  # the prescribed dofs' velocity: the step's mean
             dofs = self._dirichlet.prescribed
@@ -471,7 +485,7 @@ class ExplicitStepper(TimeLevels):
         recent = self._recent
         reference = self._settled  # up to the window before: a blow-up cannot raise it
         if self._obstacles is not None:  # what moving obstacles put in (before the step)
-            reference = max(reference, abs(self._sums["obstacle_work"]))
+            reference = max(reference, abs(self._sums[0]["obstacle_work"]))
         if np.isfinite(energy) and (reference == 0.0 or energy <= BLOWUP_FACTOR * reference):
             recent.append(energy)
             if len(recent) > BLOWUP_WINDOW:
@@ -489,13 +503,12 @@ class ExplicitStepper(TimeLevels):
         self.diagnostics.remember(self.step_index, None)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
         self.problem.move_obstacles(self.t)
-        if self._obstacles is not None and self._sums is not None:
-            self._obstacles.restore(self._sums)
+        if self._sums is not None:
+            self._restore_sums(self._sums)
 
     def state(self, columns=None) -> dict[str, float]:
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
-        if self._obstacles is not None:
-            values.update(self._obstacles.values())
+        values.update(self._balance_columns())
         values["friction_dissipation"] = 0.0
         values["energy_balance_residual"] = (
             0.0
@@ -525,7 +538,32 @@ class ExplicitStepper(TimeLevels):
         return fields
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
-        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        return {**functions, **self._balance_functions()}
+
+    def _sums_now(self) -> tuple:
+        """The running sums (:meth:`BalanceSums._running_sums`), None without any."""
+        return None if self._obstacles is None and self._external is None else self._running_sums()
+
+    def _load_vector(self) -> np.ndarray | None:
+        """The loads' vector at the current time (owned dofs), as the steps take them: the
+        body force lumped as the mass is, and the tractions; None without loads."""
+        if not self.problem.has_loads:
+            return None
+        loads = np.zeros(self._product.getLocalSize())
+        if self._unit_loads is not None:
+            loads += self._body_load()
+        if self._traction_form is not None:
+            if self._traction_loads is None or self.problem.loads_in_time:
+                vector = compat.create_vector(self.problem.V)
+                with vector.localForm() as local:
+                    local.set(0.0)
+                fem_petsc.assemble_vector(vector, self._traction_form)
+                vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+                self._traction_loads = vector.array_r.copy()
+                vector.destroy()
+            loads += self._traction_loads
+        return loads
 
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
@@ -534,9 +572,7 @@ class ExplicitStepper(TimeLevels):
         """The clock, the sums of the obstacles' work and, with damping, its running total
         and the last step's size (the level's damping force lags by half of it), for a
         checkpoint."""
-        levels = super().levels()
-        if self._obstacles is not None:
-            levels.update(self._obstacles.saved())
+        levels = {**super().levels(), **self._saved_sums()}
         if self._damping is not None:
             levels["damping_dissipation"] = self.damping_dissipation
             levels["damping_last_dt"] = self.last_dt
@@ -552,8 +588,9 @@ class ExplicitStepper(TimeLevels):
         self.step_seconds = 0.0
         self.problem.set_time(t)
         self.problem.move_obstacles(t)
-        if self._obstacles is not None:
-            self._obstacles.restore(saved)
         self.diagnostics.remember(self.step_index, None)
+        if self._external is not None:  # the level's reactions: the checkpoint's Function
+            self._level_reactions = self._external.reaction.x.array[self._external.dofs].copy()
+        self._load_sums(saved, self._load_vector() if self._external is not None else None)
         self._stiffness.mult(compat.petsc_vector(self.u), self._product)  # K u of the level
         self._settled, self._recent = max(self._settled, self._energy_scale()), deque()
