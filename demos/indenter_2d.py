@@ -53,7 +53,12 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.facet_selectors import tag_facets
-from nitsche_dolfinx.history import HISTORY_COLUMNS, OBSTACLE_COLUMNS, contact_columns
+from nitsche_dolfinx.history import (
+    HISTORY_COLUMNS,
+    OBSTACLE_COLUMNS,
+    WORK_COLUMNS,
+    contact_columns,
+)
 from nitsche_dolfinx.meshes import block_mesh
 from nitsche_dolfinx.obstacles import SphereObstacle
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
@@ -66,8 +71,8 @@ CENTRE = [0.0, 0.1001]  # the indenter's centre at t = 0: (0, H + R + g0)
 STEEL = Material(E=2e11, nu=0.3, rho=7850.0)
 GROUND, TOP = 1, 2  # facet tags
 #: the columns of the 2D demos, each contact's force and area (the indenter's first),
-#: the indenter's work and the contact dissipation
-COLUMNS = (*HISTORY_COLUMNS[:11], *contact_columns(2), *OBSTACLE_COLUMNS)
+#: the indenter's work and the contact dissipation, the work and the energy balance
+COLUMNS = (*HISTORY_COLUMNS[:11], *contact_columns(2), *OBSTACLE_COLUMNS, *WORK_COLUMNS)
 # -
 
 
@@ -134,8 +139,7 @@ def main(argv: list[str] | None = None) -> None:
         return
     print(f"{simulation.dofs} DOFs")
     depth = args.speed * history["t"][-1] - GAP
-    balance = history["energy_theta"] - history["energy_theta"][0]
-    balance += history["contact_dissipation"] - history["obstacle_work"]
+    balance = history["energy_balance"]
     indenter, ground = history["contact_force_1"][-1], history["contact_force_2"][-1]
     print(
         f"{len(history) - 1} steps of tau = {args.dt:g} s; at t = {history['t'][-1]:g} s the "

@@ -25,7 +25,7 @@ from .config import bad, output_parameters, reported_at, setting
 from .damping import check_damping
 from .diagnostics import BoundaryAverage, PointValue
 from .expressions import has_text
-from .facet_selectors import InBox, NormalWithin, OnPlane, tag_facets
+from .facet_selectors import InBox, NormalWithin, OnPlane, tag_cells, tag_facets
 from .material import Material
 from .mesh_generators import generate_mesh
 from .meshes import load_mesh
@@ -65,6 +65,7 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
     mesh, cell_tags, facet_tags = _mesh(config, comm, source)
     _check_dimensions(config, mesh.geometry.dim, source)
     facet_tags = _tag_facets(mesh, facet_tags, checked.selectors, config, source)
+    cell_tags = _tag_cells(mesh, cell_tags, config, source)
     for index, region in enumerate(config.get("region", [])):
         _cells(cell_tags, region["tag"], f"[[region]] #{index + 1}", "tag", source, comm)
     with reported_at("[nitsche]", source):
@@ -218,6 +219,21 @@ def _mesh(config: dict, comm, source: str):
             table["file"], table.get("gdim"), comm,
             facet_tags_required=not config.get("facet_tag"), with_cell_tags=True,
         )  # fmt: skip
+
+
+def _tag_cells(mesh, cell_tags, config: dict, source: str):
+    """The cell tags of the mesh with those of the [[region]] tables' boxes, in their
+    order."""
+    for index, region in enumerate(config.get("region", [])):
+        if "in_box" not in region:
+            continue
+        where = f"[[region]] #{index + 1}"
+        try:
+            box = InBox(**region["in_box"])
+            cell_tags = tag_cells(mesh, {region["tag"]: box}, cell_tags)
+        except ValueError as error:
+            raise bad(source, where, "in_box", region["in_box"], str(error)) from None
+    return cell_tags
 
 
 def _tag_facets(mesh, facet_tags, selectors: list[list], config: dict, source: str):

@@ -195,6 +195,9 @@ def validate(config: dict, source: str = "config") -> None:
     tags = [region["tag"] for region in config.get("region", [])]
     for index, region in enumerate(config.get("region", [])):
         _check_material(region, source, f"[[region]] #{index + 1} (tag = {region['tag']})")
+        if "in_box" in region:
+            _check_table(region["in_box"], FACET_SELECTORS["in_box"],
+                         f"{source}: [[region]] #{index + 1} in_box")  # fmt: skip
         if tags.count(region["tag"]) > 1:
             raise ConfigError(f"{source}: [[region]] #{index + 1}: tag = {region['tag']} "
                               "is given a material twice")  # fmt: skip

@@ -177,6 +177,10 @@ class FacetJacobian:
             self._former = self.nonzero_entries()  # to compare the next B with
             self.B.destroy()
         self.B = self.forms.create_matrix(self._matrix_type)
+        # the Dirichlet rows get a zero diagonal, which B's sparsity of the facets of
+        # Gamma_C may lack on a rank (Dirichlet conditions far from the contact, under MPI:
+        # PETSc refused the insertion): let it in
+        self.B.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         # on all of the forms' facets: PETSc keeps only the entries assembled into a new B
         self.forms.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()

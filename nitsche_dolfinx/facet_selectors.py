@@ -12,7 +12,57 @@ from mpi4py import MPI
 
 from . import compat
 
-__all__ = ["InBox", "NormalWithin", "OnPlane", "facet_cells", "facet_vertices", "tag_facets"]
+__all__ = [
+    "InBox",
+    "NormalWithin",
+    "OnPlane",
+    "facet_cells",
+    "facet_vertices",
+    "tag_cells",
+    "tag_facets",
+]
+
+
+def tag_cells(mesh, boxes: dict, cell_tags=None):
+    """Cell tags of the cells whose vertices all lie in a box, for a region of a mesh
+    without physical groups of cells (or to add regions to its tags).
+
+    Args:
+        mesh: The mesh.
+        boxes: ``{tag: InBox}``; a cell chosen by several keeps the last tag.
+        cell_tags: Existing cell tags to keep where no box chooses the cell.
+
+    Returns:
+        The cell meshtags, the same on any partition (from the cells' coordinates).
+
+    Raises:
+        ValueError: A box chooses no cell.
+    """
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim, 0)
+    cells = np.arange(mesh.topology.index_map(tdim).size_local
+                      + mesh.topology.index_map(tdim).num_ghosts, dtype=np.int32)  # fmt: skip
+    x = mesh.geometry.x
+    cell_vertices = mesh.topology.connectivity(tdim, 0)
+    per_cell = cell_vertices.offsets[1] - cell_vertices.offsets[0]
+    vertices = x[_vertex_nodes(mesh)[cell_vertices.array.reshape(-1, per_cell)]]
+    extent = max(mesh.comm.allreduce(float(np.abs(x).max(initial=0.0)), op=MPI.MAX), 1e-300)
+    indices, values = [], []
+    if cell_tags is not None:
+        indices.append(np.asarray(cell_tags.indices, dtype=np.int32))
+        values.append(np.asarray(cell_tags.values, dtype=np.int32))
+    for tag, box in boxes.items():
+        tolerance = 1e-8 * extent if box.tolerance is None else box.tolerance
+        inside = (vertices >= box.lower - tolerance) & (vertices <= box.upper + tolerance)
+        chosen = inside.all(axis=(1, 2))
+        if mesh.comm.allreduce(int(np.count_nonzero(chosen)), op=MPI.SUM) == 0:
+            raise ValueError(f"the box of cell tag {tag!r} holds no cell of the mesh")
+        indices.append(cells[chosen])
+        values.append(np.full(np.count_nonzero(chosen), tag, dtype=np.int32))
+    indices = np.concatenate(indices or [np.zeros(0, np.int32)])
+    values = np.concatenate(values or [np.zeros(0, np.int32)])
+    unique, last = np.unique(indices[::-1], return_index=True)  # the last tag of each cell
+    return dmesh.meshtags(mesh, tdim, unique.astype(np.int32), values[::-1][last])
 
 
 def tag_facets(mesh, selectors: dict, facet_tags=None):

@@ -154,11 +154,11 @@ def energy_figure(
 
 
 def work_figure(history, title: str, path: str, forces: dict[str, str] | None = None) -> None:
-    """Where the work of moving obstacles goes (docs/method.md section 13): top, E_Theta, the
-    kinetic and elastic energies, the obstacles' work W and the contact dissipation D;
-    middle, the balance E_Theta - E_Theta(0) + D - W (zero to the solver's tolerance for
-    the hybrid scheme and Crank-Nicolson); bottom, the contact forces ``forces`` ({column:
-    label}; default: each contact's, or their sum)."""
+    """Where the work of loads, supports and moving obstacles goes (docs/method.md section
+    13): top, E_Theta, the kinetic and elastic energies, the work W (``work``) and what
+    contact and damping dissipated; middle, ``energy_balance`` (zero to the solver's
+    tolerance for the hybrid scheme and Crank-Nicolson); bottom, the contact forces
+    ``forces`` ({column: label}; default: each contact's, or their sum)."""
     plt = pyplot()
     if plt is None:
         return
@@ -167,25 +167,28 @@ def work_figure(history, title: str, path: str, forces: dict[str, str] | None = 
         gridspec_kw={"height_ratios": (2, 1, 1.5)},
     )  # fmt: skip
     t = history["t"]
-    top.plot(t, history["obstacle_work"], color="black", lw=2.6, label="work of the obstacles $W$")
+    top.plot(t, history["work"], color="black", lw=2.6, label="work $W$")
     top.plot(t, history["energy_theta"], color="tab:blue", lw=1.8, label=r"$E_\Theta^h$")
     for name, label, style in _PARTS[1:3]:
         top.plot(t, history[name], label=label, **style)
-    top.plot(t, history["contact_dissipation"], color="tab:red", lw=1,
-             label="contact dissipation $D$")  # fmt: skip
+    dissipated = {"contact_dissipation": ("tab:red", "contact dissipation"),
+                  "damping_dissipation": ("tab:orange", "damping dissipation")}  # fmt: skip
+    for name, (colour, label) in dissipated.items():
+        if name in history.columns:
+            top.plot(t, history[name], color=colour, lw=1, label=label)
     top.set_ylabel("energy")
     top.legend(loc="upper left", fontsize="small")
-    balance = history["energy_theta"] - history["energy_theta"][0]
-    balance = balance + history["contact_dissipation"] - history["obstacle_work"]
-    middle.plot(t, balance, color="tab:green")
-    middle.set_ylabel(r"$E_\Theta - E_\Theta(0) + D - W$")
+    middle.plot(t, history["energy_balance"], color="tab:green")
+    middle.set_ylabel("energy balance")
+    middle.set_title(r"the change of $E_\Theta$ without the loads' potential, plus what was "
+                     "dissipated, less $W$", fontsize="small")  # fmt: skip
     middle.axhline(0.0, color="black", lw=0.5)
     if forces is None:
         names = [c for c in history.columns if c.startswith("contact_force_")] or ["contact_force"]
         forces = {name: name.replace("_", " ") for name in names}
     for name, label in forces.items():
         bottom.plot(t, history[name], label=label)
-    bottom.set_ylabel("contact force")
+    bottom.set_ylabel("force")
     bottom.set_xlabel("time $t$")
     bottom.legend(loc="upper left", fontsize="small")
     for ax in (top, middle, bottom):

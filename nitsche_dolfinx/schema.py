@@ -221,7 +221,11 @@ SCHEMA: dict[str, Table] = {
         "docs/method.md section 13)",
         {
             "tag": Key("integer", REQUIRED, "cell tag (a physical group of cells of a .msh "
-                       "file, or a body of a generated mesh)"),
+                       "file, a body of a generated mesh, or the cells of in_box)"),
+            "in_box": Key("selector", None, "tags the cells whose vertices all lie in the "
+                          "box lower <= x <= upper (keys: lower, upper, tolerance, as "
+                          "[[facet_tag]] in_box) with tag, over the mesh's own tags",
+                          shown_default="none"),
             **{name: key for name, key in toml_keys("material").items() if name != "rho"},
             "rho": Key("number", None, "density", shown_default="[material] rho"),
         },

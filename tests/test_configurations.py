@@ -91,6 +91,12 @@ CASES = {
         ["indenter_2d.py", "--t-end", "3e-5", "--nx", "16"],
         "",
     ),
+    "shaker_2d": (
+        "shaker_2d.toml",
+        {"t_end = 5e-4": "t_end = 1e-4", "nx = 40": "nx = 8", "ny = 20": "ny = 4"},
+        ["shaker_2d.py", "--t-end", "1e-4", "--nx", "8"],
+        "",
+    ),
     "ball_on_slab_3d": (
         "ball_on_slab_3d.toml",
         {"t_end = 15.0": "t_end = 2.0", "dt = 0.1": "dt = 1.0",
