@@ -179,11 +179,13 @@ class FacetJacobian:
         self.B = self.forms.create_matrix(self._matrix_type)
         # the Dirichlet rows get a zero diagonal, which B's sparsity of the facets of
         # Gamma_C may lack on a rank (Dirichlet conditions far from the contact, under MPI:
-        # PETSc refused the insertion): let it in
+        # PETSc refused the insertion): let it in at this first assembly only, which sets
+        # the sparsity (the CSR structure read below must stay B's)
         self.B.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         # on all of the forms' facets: PETSc keeps only the entries assembled into a new B
         self.forms.assemble_matrix(self.B, self.bcs, 0.0)
         self.B.assemble()
+        self.B.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
         self.indptr, self.columns, self.values = self.B.getValuesCSR()
         lengths = np.diff(self.indptr)
         self.entry_rows = np.repeat(np.arange(len(lengths)), lengths)
