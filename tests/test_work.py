@@ -178,3 +178,47 @@ def test_toml_run_writes_reactions_and_the_balance(tmp_path):
     assert "reaction_2" in columns and "work" in columns and "energy_balance" in columns
     history = simulation.run(columns=columns)
     assert np.abs(history["energy_balance"]).max() < 1e-12 * np.abs(history["work"]).max()
+
+
+def test_momentum_changes_by_the_contact_force_too(monkeypatch):
+    """With the wall: (p^{n+1} - p^n)/tau = loads + reactions - (the contact terms' rows
+    summed: the force the step's equation puts on the body from the wall, its affine part
+    summing to zero), each as the hybrid step's equation takes it. The contact terms are
+    assembled from the step's own state before it moves on; the bound is the one of the
+    test above (1e-7: Newton's tolerance, summed over the free dofs)."""
+    import ufl
+    from dolfinx import fem
+    from dolfinx.fem import petsc as fem_petsc
+    from petsc4py import PETSc
+
+    from nitsche_dolfinx import compat
+    from nitsche_dolfinx.contact_terms import contact_parts
+    from nitsche_dolfinx.stepper import NitscheStepper
+
+    simulation = shaken_bar("hybrid", t_end=3.0)
+    stepper, problem = simulation.stepper, simulation.problem
+    test = ufl.TestFunction(problem.V)
+    state = (stepper.w, stepper.u, stepper.v, stepper.a, stepper._dt)
+    parts = [simulation.scheme.residual(part, *state, test) for part in contact_parts(problem)]
+    contact = fem.form(parts[0] + parts[1])
+    forces = []
+    reactions = NitscheStepper._reactions
+
+    def with_contact(self):
+        vector = compat.create_vector(problem.V)
+        with vector.localForm() as local:
+            local.set(0.0)
+        fem_petsc.assemble_vector(vector, contact)
+        vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        forces.append(-vector.sum())
+        vector.destroy()
+        return reactions(self)
+
+    monkeypatch.setattr(NitscheStepper, "_reactions", with_contact)
+    history = simulation.run(columns=["t", "momentum", REACTION, "contact_force"])
+    t, p = history["t"], history["momentum"]
+    loads = -0.1 * (1 + (t[1:] + t[:-1]) / 2)
+    forces = np.array(forces)
+    assert history["contact_force"].max() > 0 and np.abs(forces).max() > 0.1
+    change = np.diff(p) / np.diff(t)
+    np.testing.assert_allclose(change, loads + history[REACTION][1:] + forces, rtol=0, atol=1e-7)
