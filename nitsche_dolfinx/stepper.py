@@ -236,7 +236,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
         # the energy balance (docs/method.md section 13): the obstacles' work and the contact
         # dissipation, the work of the loads and the supports, the supports' reactions
         self._obstacles = None
-        if any(contact not in problem.pairs for contact in problem.contacts):
+        if self._keeps_accounts(problem):
             self._u_new = fem.Function(V)
             self._obstacles = ObstacleWork(problem, scheme, self.u, self._u_new)
         self._external = None
@@ -290,7 +290,10 @@ class NitscheStepper(TimeLevels, BalanceSums):
 
     def _reactions(self) -> np.ndarray:
         """The step's equation's residual at its solution, at the owned Dirichlet dofs: the
-        supports' reactions (docs/method.md section 13)."""
+        supports' reactions (docs/method.md section 13); none without supports (no
+        residual to assemble)."""
+        if not self._dirichlet:
+            return np.zeros(0)
         system = self.solver.system
         x = compat.petsc_vector(self.w).copy()
         b = x.duplicate()

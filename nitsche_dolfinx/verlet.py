@@ -217,7 +217,7 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         # dissipation, the work of the loads and the supports, the supports' reactions
         self._sums = None  # the sums before the step (put back with the state)
         self._u_old = fem.Function(V)
-        if any(contact not in problem.pairs for contact in problem.contacts):
+        if self._keeps_accounts(problem):
             self._obstacles = ObstacleWork(problem, scheme, self._u_old, self.u)
         if self._dirichlet or problem.has_loads:
             self._external = ExternalWork(problem, self._dirichlet, midpoint=False)
