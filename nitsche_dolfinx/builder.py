@@ -326,6 +326,7 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
                 *pair["tags"],
                 setting(config, "contact_pair", "variant", pair),
                 setting(config, "contact_pair", "direction", pair),
+                setting(config, "contact_pair", "follow", pair),
             )
     contacts = []
     for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):

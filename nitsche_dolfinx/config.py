@@ -60,6 +60,7 @@ from .history import (
     FRICTION_HISTORY_COLUMNS,
     HISTORY_COLUMNS,
     OBSTACLE_COLUMNS,
+    PAIRING_COLUMNS,
     WORK_COLUMNS,
 )
 from .keys import KINDS
@@ -424,8 +425,9 @@ def history_columns(config: dict, simulation) -> list[str]:
     problem = simulation.problem
     work = OBSTACLE_COLUMNS if problem.moving_contacts else ()
     damping = DAMPING_COLUMNS if problem.damping is not None else ()
+    pairing = PAIRING_COLUMNS if any(pair.follow for pair in problem.pairs) else ()
     tags = sorted({condition.tag for condition in problem.dirichlet})
     supports = reaction_columns(tags, problem.gdim)
     balance = WORK_COLUMNS if tags or work else ()
     probes = (probe["name"] for probe in config.get("probe", []))
-    return [*base, *work, *damping, *supports, *balance, *probes]
+    return [*base, *work, *damping, *pairing, *supports, *balance, *probes]

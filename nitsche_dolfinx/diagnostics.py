@@ -341,6 +341,20 @@ class Diagnostics:
             self.complete(cached[1], columns)
         return self._level[1]
 
+    def follow_pairs(self, level: int) -> float:
+        """Pair the surfaces of the contact pairs again where they have slid, at the state
+        of the time level ``level`` (:meth:`~nitsche_dolfinx.model.ContactProblem.
+        follow_pairs`); the change of E_Theta the new pairing makes there (0 if none),
+        whose diagnostics are then the level's (docs/method.md section 11)."""
+        if not any(pair.follow for pair in self.model.pairs):
+            return 0.0
+        before = self.of_level(level)["energy_theta"]
+        if not self.model.follow_pairs(self.u):
+            return 0.0
+        after = self.energies()
+        self.remember(level, after)
+        return after["energy_theta"] - before
+
     def remember(self, level: int, values: dict[str, float] | None) -> None:
         """Take ``values`` as the diagnostics of ``level`` (None: forget them)."""
         self._level = None if values is None else (level, values)

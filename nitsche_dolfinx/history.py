@@ -21,6 +21,7 @@ import numpy as np
 __all__ = [
     "BALANCE_COLUMNS",
     "DAMPING_COLUMNS",
+    "PAIRING_COLUMNS",
     "added_columns",
     "centre_of_mass_columns",
     "contact_columns",
@@ -58,6 +59,9 @@ BALANCE_COLUMNS = ("friction_dissipation", "energy_balance_residual")
 #: tau (v_m, C v_m) (docs/method.md section 14); a step's share also enters
 #: ``energy_balance_residual``.
 DAMPING_COLUMNS = ("damping_dissipation",)
+#: With contact pairs that follow the sliding: the change of E_Theta the pairings made since
+#: t = 0 (docs/method.md section 11): E_Theta less it is what the steps control.
+PAIRING_COLUMNS = ("pairing_energy",)
 #: Columns of ``history.csv`` for the friction demos: the balance after the listed ones.
 FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
 #: The columns of a run with a moving obstacle: the work the obstacles did since t = 0 and

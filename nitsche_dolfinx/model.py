@@ -280,15 +280,19 @@ class ContactProblem:
         return contact
 
     def add_contact_pair(
-        self, tag_a: int, tag_b: int, variant: str = "unbiased", direction=None
-    ) -> list:
+        self, tag_a: int, tag_b: int, variant: str = "unbiased", direction=None,
+        follow: bool = True,
+    ) -> list:  # fmt: skip
         """Add contact between the facets ``tag_a`` and ``tag_b`` of two bodies (or of two
         parts of one body) of the mesh, by Nitsche's method (docs/method.md section 11).
 
-        Each node of a slave surface is paired once, in the reference configuration, with
-        its closest point on the other surface. ``variant="unbiased"`` (the default):
-        each surface is slave in turn with weight 1/2, and the stresses of both bodies
-        enter; ``"biased"``: ``tag_a`` is the slave, and only its stress enters.
+        Each node of a slave surface is paired with its closest point on the other
+        surface, in the reference configuration and, with ``follow`` (the default), again
+        in the configuration of the last converged step whenever the surfaces have slid
+        along each other by a tenth of a facet (:data:`~nitsche_dolfinx.pairs.REPAIR_SLIP`).
+        ``variant="unbiased"`` (the default): each surface is slave in turn with weight
+        1/2, and the stresses of both bodies enter; ``"biased"``: ``tag_a`` is the slave,
+        and only its stress enters.
         ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
         instead of with the closest point, with the contact normal n_c = direction: for
         a head-on collision, where it makes a pair of mirror-image bodies exactly one
@@ -309,7 +313,7 @@ class ContactProblem:
             length = float(np.linalg.norm(unit))
             require(length > 0, "direction", unit.tolist(), "the direction must not be zero")
             unit = unit / length
-        halves = pair_halves(self, tag_a, tag_b, variant, unit)
+        halves = pair_halves(self, tag_a, tag_b, variant, unit, follow)
         for half in halves:
             self.contacts.append(half)
             self.contact_tags.append(half.ds.subdomain_id())
@@ -325,6 +329,32 @@ class ContactProblem:
         stepper's displacement, velocity, acceleration and unknown)."""
         for pair in self.pairs:
             pair.track(functions)
+
+    def follow_pairs(self, u: fem.Function) -> bool:
+        """Pair the surfaces of the contact pairs again in the configuration displaced by
+        ``u`` (the last converged step's) if any has slid (docs/method.md section 11), all
+        of them at once; True if they were (collective)."""
+        pairings = [pair.pairing for pair in self.pairs if pair.follow]
+        if not any([pairing.slid(u) for pairing in pairings]):
+            return False
+        for pairing in pairings:
+            pairing.pair(u)
+        self.update_partners()
+        return True
+
+    def pairing_state(self) -> dict:
+        """The displacements the pairs were last paired in, by name (``pairing_1``, ...):
+        what a restart needs to pair them as the run did (:meth:`restore_pairs`)."""
+        halves = (pair for pair in self.pairs if pair.follow)
+        return {f"pairing_{k}": pair.pairing.displacement for k, pair in enumerate(halves, 1)}
+
+    def restore_pairs(self) -> None:
+        """Pair the surfaces in the displacements of :meth:`pairing_state`, just loaded
+        from a checkpoint (collective)."""
+        for pair in self.pairs:
+            if pair.follow:
+                pair.pairing.pair(pair.pairing.displacement)
+        self.update_partners()
 
     def update_partners(self) -> None:
         """Recompute the partners of the tracked Functions (before evaluating a form)."""

@@ -54,11 +54,12 @@ class PairCoupling:
     with T live on the facets of each slave surface near the contact (those of the cells
     in contact and a ring of neighbours, :class:`.ContactFacets`), made again when the
     contact zone moves beyond them, and filled again at each Jacobian; while the contact
-    terms are inactive everywhere nothing is assembled. The entries of the coupling are
-    those of the products on all of the surfaces, fixed; each product's go to their
-    places among them, a symmetric coupling's transpose by one exchange between the
+    terms are inactive everywhere nothing is assembled. A new pairing (a new T, when the
+    surfaces have slid) makes the products again. The entries of the products are summed
+    at each Jacobian, a symmetric coupling's transpose sent by one exchange between the
     ranks (:class:`_Transpose`). The nonzero coupling terms are added to the Jacobian,
-    whose sparsity holds them: :attr:`growth` names the entries it lacks.
+    whose sparsity holds every entry they have had: :attr:`growth` names the entries it
+    lacks.
 
     Args:
         pairs: The :class:`~nitsche_dolfinx.pairs.PairContact` halves of the problem.
@@ -90,23 +91,31 @@ class PairCoupling:
             self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
             self._derivatives.append(derivatives)
             self._facets.append(ContactFacets.of_measure(V.mesh, pair.ds))
+        self._transposes = [None] * len(self.pairs)
+        self._generations = [pair.pairing.generation for pair in self.pairs]
         self._g = compat.create_vector(V)
         self._Tg = self._g.duplicate()
         index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
         owned = np.asarray(bc_dofs, dtype=np.int64)
         self._owned_bc = owned[owned < index_map.size_local * bs]
-        self._sizes = ((index_map.size_local * bs, index_map.size_global * bs),) * 2
+        self._width = index_map.size_global * bs
         self._offset = index_map.local_range[0] * bs  # the global index of the first row
         self._comm = V.mesh.comm
-        self._entries()
-        self._known = np.zeros(len(self._rows), dtype=bool)  # entries the Jacobian holds
-        self._active = None  # the last coupling: (which entries are nonzero, their values)
+        self._bc_rows = self._offset + self._owned_bc
+        self._bc_columns = np.concatenate(self._comm.allgather(self._bc_rows))
+        self._held = np.zeros(0, dtype=np.int64)  # the entries the Jacobian holds (keys)
+        self._active = None  # the last coupling: its nonzero entries (keys), their values
         #: The coupling entries of the last Jacobian that the sparsity of the Jacobian
         #: lacked (None: none); the solver widens its matrices by them.
         self.growth: CouplingEntries | None = None
         #: Every coupling entry that the Jacobian holds (those :meth:`add_jacobian` may
         #: add to): the solver's sum of the Jacobian sets them back to zero first.
-        self.entries = self._entries_of(self._known)
+        self.entries = self._entries_of(self._held)
+
+    def pairings(self) -> tuple[int, ...]:
+        """The generation of each pair's pairing: a new one changes the pair's normal, and
+        with it the affine facet terms of the constant Jacobian."""
+        return tuple(pair.pairing.generation for pair in self.pairs)
 
     def update(self, x: PETSc.Vec | None = None) -> None:
         """The partner of the iterate ``x`` (before each residual); without ``x``, the
@@ -151,19 +160,33 @@ class PairCoupling:
         flags = self._comm.allreduce(np.array(changes, dtype=int), op=MPI.SUM)
         for index, (facets, flag) in enumerate(zip(self._facets, flags)):
             if flag:
-                _, matrices, products = self._terms[index]
-                for matrix in matrices + (products or []):
+                self._drop_products(index)
+                for matrix in self._terms[index][1]:
                     matrix.destroy()
                 forms = [fem.form(facets.restrict(d)) for d in self._derivatives[index]]
                 matrices = [fem_petsc.create_matrix(form) for form in forms]
-                self._terms[index], self._transposes[index] = (forms, matrices, None), None
+                self._terms[index] = (forms, matrices, None)
+
+    def _drop_products(self, index: int) -> None:
+        """Forget pair ``index``'s products (their sparsity is no longer that of its
+        matrices or of its T)."""
+        forms, matrices, products = self._terms[index]
+        for product in products or []:
+            product.destroy()
+        self._terms[index], self._transposes[index] = (forms, matrices, None), None
+
+    def _follow_pairings(self) -> None:
+        """Products made anew for the pairs paired again since the last Jacobian."""
+        for index, pair in enumerate(self.pairs):
+            if pair.pairing.generation != self._generations[index]:
+                self._drop_products(index)
+                self._generations[index] = pair.pairing.generation
 
     def _products(self, index: int):
         """Form pair ``index``'s products of its derivative matrices with T (into the
         product matrices of the last call, once they exist): F_w T, T^T G_ww T and,
         unless symmetric, T^T G_w (symmetric: the transpose of F_w T, which
-        :meth:`_coupling` sums without forming it). New products are located among
-        the coupling's entries (collective)."""
+        :meth:`_coupling` sums without forming it; collective when new)."""
         forms, matrices, products = self._terms[index]
         T = self.pairs[index].pairing.T
         F_w, G_ww, *G_w = matrices  # dF/dw~, dG/dw~ and, unless symmetric, dG/dw
@@ -171,8 +194,10 @@ class PairCoupling:
             products = [F_w.matMult(T), G_ww.PtAP(T)]
             if G_w:
                 products.append(T.transposeMatMult(G_w[0]))
+            else:  # symmetric: the transpose of F_w T, sent to the owners of its rows
+                keys = self._keys(*products[0].getValuesCSR()[:2])
+                self._transposes[index] = _Transpose(keys, self._width, products[0])
             self._terms[index] = (forms, matrices, products)
-            self._locate(index)
         else:
             F_w.matMult(T, products[0])
             G_ww.PtAP(T, products[1])
@@ -180,70 +205,36 @@ class PairCoupling:
                 T.transposeMatMult(G_w[0], products[2])
         return products
 
-    def _keys(self, product: PETSc.Mat) -> np.ndarray:
-        """The entries of ``product`` as ``row * width + column`` (global indices)."""
-        indptr, columns, _ = product.getValuesCSR()
-        rows = np.repeat(np.arange(self._sizes[0][0], dtype=np.int64), np.diff(indptr))
-        return (self._offset + rows) * self._sizes[1][1] + columns
-
-    def _locate(self, index: int) -> None:
-        """Where the entries of pair ``index``'s products go among the coupling's entries
-        (and, symmetric, the transpose of F_w T: :class:`_Transpose`; collective)."""
-        products, width = self._terms[index][2], self._sizes[1][1]
-        keys = [self._keys(product) for product in products]
-        transpose = self._transposes[index]
-        if transpose is None and len(products) == 2:  # new products, symmetric
-            transpose = self._transposes[index] = _Transpose(keys[0], width, products[0])
-        if self._every is None:  # (the first products: the coupling's entries are theirs)
-            return
-        keys += [transpose.keys] if transpose is not None else []
-        places = [np.searchsorted(self._every, key) for key in keys]
-        for key, place in zip(keys, places):  # the first products' entries hold them
-            if len(key) and not np.array_equal(
-                self._every[np.minimum(place, len(self._every) - 1)], key
-            ):
-                raise RuntimeError("contact pair: a coupling entry beyond the first products'")
-        self._places[index] = places
-
-    def _entries(self) -> None:
-        """The entries of the coupling terms (the union of the sparsities of the first
-        products, on all of each surface: the owned rows, global columns, in CSR order;
-        later products, on fewer facets, have fewer), where each product's entries go,
-        and which are not in a Dirichlet row or column."""
-        count, width = len(self.pairs), self._sizes[1][1]
-        self._every, self._transposes, self._places = None, [None] * count, [None] * count
-        self._assemble()
-        keys = []
-        for index in range(count):
-            products = self._products(index)
-            transpose = self._transposes[index]
-            keys += [self._keys(product) for product in products]
-            keys += [transpose.keys] if transpose is not None else []
-        self._every = np.unique(np.concatenate(keys))
-        for index in range(count):
-            self._locate(index)
-        every = self._every - self._offset * width
-        self._rows, self._columns = every // width, every % width
-        bc = np.concatenate(self._comm.allgather(self._offset + self._owned_bc))
-        self._free = ~(np.isin(self._rows, self._owned_bc) | np.isin(self._columns, bc))
+    def _keys(self, indptr: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """The entries of an owned CSR block as ``row * width + column`` (global)."""
+        rows = np.repeat(np.arange(len(indptr) - 1, dtype=np.int64), np.diff(indptr))
+        return (self._offset + rows) * self._width + columns
 
     def _coupling(
         self, inactive: bool, active_cells: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """The coupling terms at the current iterate, with zero Dirichlet rows and columns
-        (zero, without assembling, when the contact terms are ``inactive`` everywhere):
-        which entries are nonzero, and their values."""
-        values = np.zeros(len(self._rows))
-        if not inactive:
-            self._assemble(active_cells)
-            for index in range(len(self.pairs)):
-                products, transpose = self._products(index), self._transposes[index]
-                parts = [product.getValuesCSR()[2] for product in products]
-                parts += [transpose.values()] if transpose is not None else []
-                for part, places in zip(parts, self._places[index]):
-                    values[places] += part  # no entry twice in a product or its transpose
-        nonzero = (values != 0.0) & self._free
-        return nonzero, values[nonzero]
+        (none, without assembling, when the contact terms are ``inactive`` everywhere):
+        the nonzero entries (keys, sorted) and their values."""
+        if inactive:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        self._assemble(active_cells)
+        keys, values = [], []
+        for index in range(len(self.pairs)):
+            for product in self._products(index):
+                indptr, columns, entries = product.getValuesCSR()
+                keys.append(self._keys(indptr, columns))
+                values.append(entries)
+            transpose = self._transposes[index]
+            if transpose is not None:
+                keys.append(transpose.keys)
+                values.append(transpose.values())
+        every, place = np.unique(np.concatenate(keys), return_inverse=True)
+        summed = np.bincount(place.ravel(), weights=np.concatenate(values), minlength=len(every))
+        rows, columns = every // self._width, every % self._width
+        free = ~(np.isin(rows, self._bc_rows) | np.isin(columns, self._bc_columns))
+        nonzero = (summed != 0.0) & free
+        return every[nonzero], summed[nonzero]
 
     def jacobian_changed(
         self, inactive: bool = False, active_cells: np.ndarray | None = None
@@ -251,33 +242,33 @@ class PairCoupling:
         """Assemble the coupling terms (on the facets of the ``active_cells`` and their
         neighbours, if given); True if they differ from the last ones. Sets
         :attr:`growth` (collective)."""
+        self._follow_pairings()
         active, last = self._coupling(inactive, active_cells), self._active
         same = last is not None and all(np.array_equal(a, b) for a, b in zip(active, last))
-        new = active[0] & ~self._known
+        new = np.setdiff1d(active[0], self._held, assume_unique=True)
         # whether every rank's coupling is the same, whether any rank's has new entries
-        flags = np.array([int(same), int(new.any())])
+        flags = np.array([int(same), int(len(new) > 0)])
         same, grows = self._comm.allreduce(flags, op=MPI.SUM)
         self._active = active
         self.growth = None
         if grows:
-            self._known |= new
+            self._held = np.union1d(self._held, new)
             self.growth = self._entries_of(new)
-            self.entries = self._entries_of(self._known)
+            self.entries = self._entries_of(self._held)
         return same < self._comm.size
 
-    def _entries_of(self, mask: np.ndarray) -> CouplingEntries:
-        """The coupling entries of ``mask`` on the rows that have any."""
-        rows = self._rows[mask]
+    def _entries_of(self, keys: np.ndarray) -> CouplingEntries:
+        """The coupling entries ``keys`` (sorted) in CSR form, on the rows that have any."""
+        rows = keys // self._width
         present, counts = np.unique(rows, return_counts=True)
-        indptr = csr_pointers(counts)
-        columns = self._columns[mask].astype(PETSc.IntType)
-        return CouplingEntries((self._offset + present).astype(PETSc.IntType), indptr, columns)
+        columns = (keys % self._width).astype(PETSc.IntType)
+        return CouplingEntries(present.astype(PETSc.IntType), csr_pointers(counts), columns)
 
     def add_jacobian(self, A: PETSc.Mat) -> None:
         """A += the coupling terms of the last :meth:`jacobian_changed` (A's sparsity holds
         them, widened by the :attr:`growth` of that call)."""
-        nonzero, values = self._active
-        rows, indptr, columns = self._entries_of(nonzero)
+        keys, values = self._active
+        rows, indptr, columns = self._entries_of(keys)
         A.setValuesIJV(indptr, columns, values, PETSc.InsertMode.ADD, rows)
         A.assemble()
 

@@ -1,18 +1,22 @@
 """Contact between two deformable bodies by Nitsche's method (docs/method.md section 11).
 
 A pair is a slave surface Gamma_1 and a master surface Gamma_2, on one mesh (two bodies
-may be disconnected parts of it). Each node of Gamma_1 is paired once, in the reference
-configuration, with its closest point on Gamma_2 (:class:`Pairing`). That pairing is a
-matrix T: (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i, zero elsewhere, so that the
+may be disconnected parts of it). Each node of Gamma_1 is paired with a point of Gamma_2
+(:class:`Pairing`): its closest point, or where a line along a given direction meets
+Gamma_2, found in the configuration of a displacement (the reference one at first, the
+last converged step's when the surfaces have slid: :meth:`Pairing.slid`). That pairing is
+a matrix T: (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i, zero elsewhere, so that the
 partner displacement on Gamma_1 is the interpolant of u o pi, a function of the same
 space. The contact law is that of a rigid obstacle (:class:`~nitsche_dolfinx.contact.
 NitscheContact`, the hybrid switch included) with
 
-    u_n = (u - T u) . n_c,   g = (pi(x) - x) . n_c,   n_c = -(outer normal of Gamma_2 at pi(x)),
+    u_n = (u - T u) . n_c,   g = (X(pi(x)) - X(x)) . n_c,   n_c = -(outer normal of Gamma_2),
 
-and the test projection P_Thgamma(v) = (v - T v) . n_c - Theta gamma_h sigma_n(v). The part
-of the residual tested by T v is assembled as a vector G on the slave side and added as
-T^T G; the Jacobian is exact: with w~ = T w the partner of the scheme's unknown,
+X the reference positions, the normal taken at pi(x), and the test projection
+P_Thgamma(v) = (v - T v) . n_c - Theta gamma_h sigma_n(v). The part of the residual
+tested by T v is assembled as a vector G on the slave side and added as T^T G; within a
+step T and n_c are fixed, and the Jacobian is exact for them: with w~ = T w the partner
+of the scheme's unknown,
 
     J = dF/dw + (dF/dw~) T + T^T (dG/dw) + T^T (dG/dw~) T.
 
@@ -27,18 +31,26 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.spatial import cKDTree
 from ufl.algorithms import extract_coefficients
 
 from . import compat
 from .contact import NitscheContact
 
-__all__ = ["CONTACT_PAIR_VARIANTS", "PairContact", "Pairing", "pair_halves"]
+__all__ = ["CONTACT_PAIR_VARIANTS", "REPAIR_SLIP", "PairContact", "Pairing", "pair_halves"]
 
 #: ``"unbiased"``: each surface slave in turn with weight 1/2; ``"biased"``: the first
 #: surface is the slave, and only its stress enters.
 CONTACT_PAIR_VARIANTS = ("unbiased", "biased")
 
-_NEWTON_STEPS = 8  # Gauss-Newton steps of a closest-point projection onto a curved facet
+#: A pairing is made again when a slave node has slid along the master surface, since the
+#: last pairing, by more than this fraction of the size of the facet it is paired with
+#: (docs/method.md section 11).
+REPAIR_SLIP = 0.1
+
+_NEWTON_STEPS = 12  # Newton steps of a closest-point projection onto a curved facet
+_HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer
+_XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends the projection
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
 _ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
 
@@ -47,10 +59,30 @@ def _basix_cell(mesh):
     return getattr(basix.CellType, compat.cell_name(mesh))
 
 
+def _lagrange(cell_type, degree: int):
+    return basix.create_element(
+        basix.ElementFamily.P, cell_type, degree, basix.LagrangeVariant.equispaced
+    )
+
+
+def _into_facet(xi: np.ndarray) -> np.ndarray:
+    """The facet coordinates xi (points, fdim) moved to the nearest point of the reference
+    simplex facet xi >= 0, sum(xi) <= 1 (an interval or a triangle)."""
+    inside = np.clip(xi, 0.0, None)
+    beyond = inside.sum(axis=1) > 1.0
+    if xi.shape[1] == 1:
+        inside[beyond] = 1.0
+    elif beyond.any():  # onto the edge xi_1 + xi_2 = 1
+        first = np.clip((xi[beyond, 0] - xi[beyond, 1] + 1.0) / 2, 0.0, 1.0)
+        inside[beyond] = np.stack([first, 1.0 - first], axis=1)
+    return inside
+
+
 class _MasterSurface:
-    """The facets of Gamma_2 whose cell this rank owns, with what a closest-point
-    projection needs: the cell's geometry nodes and the facet's reference parametrisation
-    X(xi) = X0 + E xi."""
+    """The facets of Gamma_2 whose cell this rank owns, as arrays over the facets: the
+    cell, its geometry nodes and dofs, and the facet's reference parametrisation
+    X(xi) = X0 + E xi; the surface is followed in the configuration of a displacement
+    (:meth:`move`)."""
 
     def __init__(self, V, facets: np.ndarray):
         mesh = V.mesh
@@ -63,103 +95,187 @@ class _MasterSurface:
         cell_type = _basix_cell(mesh)
         reference = basix.geometry(cell_type)
         facet_vertices = basix.topology(cell_type)[fdim]
-        self.geometry_element = basix.create_element(
-            basix.ElementFamily.P, cell_type, compat.geometry_degree(mesh),
-            basix.LagrangeVariant.equispaced,
-        )  # fmt: skip
-        self.element = basix.create_element(
-            basix.ElementFamily.P, cell_type, compat.element_degree(V),
-            basix.LagrangeVariant.equispaced,
-        )  # fmt: skip
-        geometry = compat.geometry_dofmap(mesh)
-        x = mesh.geometry.x[:, : self.gdim]
-        self.cells, self.origins, self.edges, self.nodes = [], [], [], []
+        self.geometry_element = _lagrange(cell_type, compat.geometry_degree(mesh))
+        self.element = _lagrange(cell_type, compat.element_degree(V))
+        cells, origins, edges = [], [], []
         for facet in facets:
             cell = int(f2c.links(facet)[0])
             if cell >= owned_cells:
                 continue
             local = int(np.flatnonzero(c2f.links(cell) == facet)[0])
             vertices = reference[facet_vertices[local]]
-            self.cells.append(cell)
-            self.origins.append(vertices[0])
-            self.edges.append((vertices[1:] - vertices[0]).T)  # (tdim, fdim)
-            self.nodes.append(x[geometry[cell]])
-        self.cells = np.asarray(self.cells, dtype=np.int32)
-        self.centroids = np.array(
-            [self._point(i, self._middle(i))[0] for i in range(len(self.cells))]
-        ).reshape(-1, self.gdim)
+            cells.append(cell)
+            origins.append(vertices[0])
+            edges.append((vertices[1:] - vertices[0]).T)  # (tdim, fdim)
+        count = len(cells)
+        self.cells = np.asarray(cells, dtype=np.int32)
+        self.origins = np.asarray(origins, dtype=float).reshape(count, tdim)
+        self.edges = np.asarray(edges, dtype=float).reshape(count, tdim, fdim)
+        self.nodes = mesh.geometry.x[:, : self.gdim][compat.geometry_dofmap(mesh)[self.cells]]
+        self.dofs = compat.dofmap_array(V)[self.cells]  # (facets, dofs of a cell), blocked
+        self.bs = V.dofmap.index_map_bs
+        self.shift = None
+        # the size of each facet: its longest edge (its length in 1D: none, 1)
+        corners = [self.points(np.arange(count), corner)[0] for corner in self._corners(fdim)]
+        self.size = np.ones(count)
+        if fdim:
+            self.size = np.max(
+                [np.linalg.norm(a - b, axis=1) for a in corners for b in corners], axis=0
+            )
+        self.move(None)
 
-    def _middle(self, i: int) -> np.ndarray:
-        fdim = self.edges[i].shape[1]
-        return np.full(fdim, 1.0 / (fdim + 1))
+    @staticmethod
+    def _corners(fdim: int) -> list[np.ndarray]:
+        """The facet coordinates xi of the vertices of a simplex facet."""
+        return [np.zeros(fdim)] + [np.eye(fdim)[k] for k in range(fdim)]
 
-    def _point(self, i: int, xi: np.ndarray):
-        """x(X(xi)) on facet i, and d x / d xi (gdim, fdim)."""
-        X = self.origins[i] + self.edges[i] @ xi
-        table = self.geometry_element.tabulate(1, X[None, :])[:, 0, :, 0]  # (1 + tdim, nodes)
-        nodes = self.nodes[i]
-        return table[0] @ nodes, (table[1:] @ nodes).T @ self.edges[i]
+    def move(self, u: np.ndarray | None) -> None:
+        """Follow the surface displaced by ``u`` (the local values of a Function of the
+        displacement space, ghosts included; None: the reference configuration)."""
+        self.shift = None
+        if u is not None:
+            self.shift = u.reshape(-1, self.bs)[self.dofs][..., : self.gdim]
+        fdim = self.edges.shape[2]
+        middle = np.full((len(self.cells), fdim), 1.0 / (fdim + 1))
+        self.centroids = self.points(np.arange(len(self.cells)), middle)[0]
+        centres = self.nodes.mean(axis=1)
+        if self.shift is not None:
+            centres = centres + self.shift.mean(axis=1)
+        self.centres = centres  # a point inside each (displaced) cell
+
+    def points(self, facet: np.ndarray, xi: np.ndarray, displaced: bool = True, second=False):
+        """The points x(X(xi)) of the ``facet`` (an index per point; ``xi`` (points, fdim),
+        or one xi for all), displaced unless told otherwise, and dx/dxi (points, gdim,
+        fdim); with ``second``, also d2x/dxi2 (points, gdim, fdim, fdim)."""
+        fdim, tdim = self.edges.shape[2], self.edges.shape[1]
+        if not len(facet):  # (basix tabulates no empty set of points)
+            empty = np.zeros((0, self.gdim, fdim))
+            return (np.zeros((0, self.gdim)), empty, np.zeros((0, self.gdim, fdim, fdim)))[
+                : 3 if second else 2
+            ]
+        xi = np.broadcast_to(xi, (len(facet), fdim))
+        edges = self.edges[facet]
+        X = self.origins[facet] + np.einsum("nij,nj->ni", edges, xi)
+        order = 2 if second else 1
+        sources = [(self.geometry_element, self.nodes[facet])]
+        if displaced and self.shift is not None:
+            sources.append((self.element, self.shift[facet]))
+        x, jacobian, hessian = 0.0, 0.0, 0.0
+        for element, values in sources:
+            table = element.tabulate(order, X)[..., 0]  # (derivatives, points, nodes)
+            x = x + np.einsum("nk,nkd->nd", table[0], values)
+            jacobian = jacobian + np.einsum("jnk,nkd->ndj", table[1 : 1 + tdim], values)
+            if second:
+                index = [[basix.index(*np.eye(tdim, dtype=int)[[i, j]].sum(axis=0))
+                          for j in range(tdim)] for i in range(tdim)]  # fmt: skip
+                hessian = hessian + np.einsum("ijnk,nkd->ndij", table[np.array(index)], values)
+        tangent = np.einsum("ndj,njf->ndf", jacobian, edges)
+        if not second:
+            return x, tangent
+        return x, tangent, np.einsum("ndij,nif,njg->ndfg", hessian, edges, edges)
+
+    def reference_point(self, facet: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """The reference-cell coordinates X(xi) of the points."""
+        return self.origins[facet] + np.einsum("nij,nj->ni", self.edges[facet], xi)
+
+    def _candidates(self, points: np.ndarray, direction: np.ndarray | None) -> np.ndarray:
+        """For each point, the facets with the nearest centroids (measured across the line
+        along ``direction``, if given): a k-d tree search, n log n."""
+        count = min(_CANDIDATES, len(self.cells))
+        centroids = self.centroids
+        if direction is not None:  # coordinates across the line
+            basis = np.linalg.svd(np.eye(self.gdim) - np.outer(direction, direction))[0]
+            basis = basis[:, : self.gdim - 1]
+            centroids, points = centroids @ basis, points @ basis
+        if not centroids.shape[1]:  # (1D along the line: every facet is as near)
+            return np.broadcast_to(np.arange(count), (len(points), count))
+        _, nearest = cKDTree(centroids).query(points, k=count)
+        return np.asarray(nearest).reshape(len(points), count)
 
     def closest(self, points: np.ndarray, direction: np.ndarray | None = None):
         """For each point: the distance to the nearest facet of this rank (inf if none),
-        that facet's index, the reference point X in its cell and the outer normal.
+        that facet's index, its facet coordinates xi there, and the outer normal.
 
         With a unit ``direction`` d, the partner is where the line through the point along
         d meets the surface: the distance is then that of the line to the facet (zero
         where it meets it, plus a tie-break favouring the nearest meeting point), and the
         normal returned is -d."""
-        count = len(points)
+        count, fdim = len(points), self.edges.shape[2]
         distance = np.full(count, np.inf)
         facet = np.full(count, -1, dtype=np.int64)
-        X = np.zeros((count, len(self.origins[0]) if len(self.cells) else 1))
+        xi = np.zeros((count, fdim))
         normal = np.zeros((count, self.gdim))
-        if not len(self.cells):
-            return distance, facet, X, normal
+        if not len(self.cells) or not count:
+            return distance, facet, xi, normal
         across = np.eye(self.gdim)
         if direction is not None:  # only the offset across the line counts
             across = across - np.outer(direction, direction)
-        offsets = (self.centroids[None, :, :] - points[:, None, :]) @ across
-        candidates = np.argsort(np.linalg.norm(offsets, axis=2), axis=1)[:, :_CANDIDATES]
-        for q, p in enumerate(points):
-            for i in candidates[q]:
-                xi, x = self._project(i, p, across)
-                d = float(np.linalg.norm(across @ (x - p)))
-                if direction is not None:
-                    d += 1e-9 * abs(float(direction @ (x - p)))
-                if d < distance[q]:
-                    distance[q], facet[q] = d, i
-                    X[q] = self.origins[i] + self.edges[i] @ xi
-                    normal[q] = (
-                        -direction if direction is not None else self._outer_normal(i, xi, x)
-                    )
-        return distance, facet, X, normal
+        candidates = self._candidates(points, direction)
+        tried = candidates.ravel()
+        targets = np.repeat(points, candidates.shape[1], axis=0)
+        xi_tried, x = self._project(tried, targets, across)
+        offset = x - targets
+        length = np.linalg.norm(offset @ across, axis=1)
+        if direction is not None:
+            length += 1e-9 * np.abs(offset @ direction)
+        best = np.argmin(length.reshape(candidates.shape), axis=1)  # the first on a tie
+        chosen = np.arange(count) * candidates.shape[1] + best
+        distance, facet, xi = length[chosen], tried[chosen], xi_tried[chosen]
+        if direction is not None:
+            normal[:] = -direction
+        else:
+            normal = self._outer_normal(facet, xi, x[chosen])
+        return distance, facet, xi, normal
 
-    def _project(self, i: int, p: np.ndarray, across: np.ndarray):
-        """The point of facet i closest to p, measured by ``across`` (the identity, or the
-        projection across a line): Gauss-Newton in xi, kept in the facet."""
-        xi = self._middle(i)
-        x, tangent = self._point(i, xi)
-        for _ in range(_NEWTON_STEPS if xi.size else 0):
-            step = np.linalg.lstsq(across @ tangent, across @ (p - x), rcond=None)[0]
-            xi = np.clip(xi + step, 0.0, None)
-            if xi.sum() > 1.0:
-                xi = xi / xi.sum()
-            x, tangent = self._point(i, xi)
+    def _project(self, facet: np.ndarray, targets: np.ndarray, across: np.ndarray):
+        """The points of the facets closest to the targets, measured by ``across`` (the
+        identity, or the projection across a line): Newton's method on the squared
+        distance in xi, with its curvature term (Gauss-Newton where the Hessian is not
+        positive definite) and halved steps where a step does not bring the point nearer,
+        kept in the facet. Returns xi and the points."""
+        fdim = self.edges.shape[2]
+        xi = np.full((len(facet), fdim), 1.0 / (fdim + 1))
+        x, tangent, curvature = self.points(facet, xi, second=True)
+        if not fdim:
+            return xi, x
+        for _ in range(_NEWTON_STEPS):
+            offset = (x - targets) @ across  # (``across`` is symmetric)
+            gradient = np.einsum("ndf,nd->nf", tangent, offset)
+            gauss_newton = np.einsum("ndf,de,neg->nfg", tangent, across, tangent)
+            hessian = gauss_newton + np.einsum("nd,ndfg->nfg", offset, curvature)
+            convex = np.all(np.linalg.eigvalsh(hessian) > 0, axis=1)
+            hessian[~convex] = gauss_newton[~convex]
+            step = -np.einsum("nfg,ng->nf", np.linalg.pinv(hessian), gradient)
+            distance = np.einsum("nd,nd->n", offset, offset)
+            scale, moved = np.ones(len(facet)), np.zeros(len(facet), dtype=bool)
+            for _ in range(_HALVINGS):  # halve the steps that do not bring the point nearer
+                trial = _into_facet(xi + scale[:, None] * step)
+                new = self.points(facet, trial, second=True)
+                new_offset = (new[0] - targets) @ across
+                nearer = np.einsum("nd,nd->n", new_offset, new_offset) <= distance
+                take = nearer & ~moved
+                xi[take] = trial[take]
+                x[take], tangent[take], curvature[take] = (part[take] for part in new)
+                moved |= nearer
+                if moved.all():
+                    break
+                scale[~moved] /= 2
+            if np.max(np.abs(scale[:, None] * step), initial=0.0) < _XI_TOLERANCE:
+                break
         return xi, x
 
-    def _outer_normal(self, i: int, xi: np.ndarray, x: np.ndarray) -> np.ndarray:
-        """The unit normal of facet i at x(xi), pointing out of its cell."""
-        _, tangent = self._point(i, xi)
+    def _outer_normal(self, facet: np.ndarray, xi: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """The unit normals of the facets at x(xi), pointing out of their cells."""
+        _, tangent = self.points(facet, xi)
         if self.gdim == 1:
-            normal = np.ones(1)
+            normal = np.ones((len(facet), 1))
         elif self.gdim == 2:
-            normal = np.array([tangent[1, 0], -tangent[0, 0]])
+            normal = np.stack([tangent[:, 1, 0], -tangent[:, 0, 0]], axis=1)
         else:
-            normal = np.cross(tangent[:, 0], tangent[:, 1])
-        inward = self.nodes[i].mean(axis=0) - x
-        if normal @ inward > 0:
-            normal = -normal
-        return normal / np.linalg.norm(normal)
+            normal = np.cross(tangent[:, :, 0], tangent[:, :, 1])
+        inward = np.einsum("nd,nd->n", normal, self.centres[facet] - x) > 0
+        normal[inward] *= -1.0
+        return normal / np.linalg.norm(normal, axis=1, keepdims=True)
 
 
 def _surface_nodes(V, facets: np.ndarray):
@@ -198,27 +314,55 @@ def _surface_nodes(V, facets: np.ndarray):
 
 
 class Pairing:
-    """The pairing of the nodes of Gamma_1 (slave facets) with Gamma_2 (master facets), in
-    the reference configuration, under MPI: with the closest point of Gamma_2 and its
-    normal, or, given a unit ``direction`` d, with the point where the line through the
-    node along d meets Gamma_2, and n_c = d.
+    """The pairing of the nodes of Gamma_1 (slave facets) with Gamma_2 (master facets),
+    under MPI: with the closest point of Gamma_2 and its normal, or, given a unit
+    ``direction`` d, with the point where the line through the node along d meets Gamma_2,
+    and n_c = d. Made in the reference configuration, and again by :meth:`pair` in that of
+    a displacement (when the surfaces have slid, :meth:`slid`).
 
     Attributes:
         T: The PETSc matrix (T u)(x_i) = u(pi(x_i)) at the slave nodes x_i (each
-            component), zero rows elsewhere; on the layout of the vectors of ``V``.
+            component), zero rows elsewhere; on the layout of the vectors of ``V``. A new
+            matrix at each pairing.
         normal: n_c at the slave nodes (a Function of ``V``, zero elsewhere).
-        gap_vector: pi(x_i) - x_i at the slave nodes (a Function of ``V``).
+        gap_vector: X(pi(x_i)) - X(x_i) at the slave nodes, X the reference positions (a
+            Function of ``V``).
+        displacement: The displacement the pairing was made in (a Function of ``V``).
+        generation: The number of pairings made so far.
     """
 
     def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray, direction=None):
-        mesh, comm = V.mesh, V.mesh.comm
-        gdim = mesh.geometry.dim
-        index_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
-        nodes, coordinates = _surface_nodes(V, slave_facets)
-        every_node = np.concatenate(comm.allgather(index_map.local_to_global(nodes)))
-        every_point = np.vstack(comm.allgather(coordinates)).reshape(-1, gdim)
-        master = _MasterSurface(V, master_facets)
-        distance, facet, X, outer = master.closest(every_point, direction)
+        self.V, self.direction = V, direction
+        self._nodes, self._positions = _surface_nodes(V, slave_facets)
+        self._master = _MasterSurface(V, master_facets)
+        self.normal, self.gap_vector = fem.Function(V), fem.Function(V)
+        self.displacement = fem.Function(V)
+        self._scale = fem.Function(V)  # the size of each slave node's partner facet
+        self._partner_work = compat.create_vector(V)  # work: T u
+        self.T = None
+        self.generation = 0
+        self.pair()
+
+    def pair(self, u: fem.Function | None = None) -> None:
+        """Pair the surfaces in the configuration displaced by ``u`` (None: the reference
+        one); collective."""
+        V, comm = self.V, self.V.mesh.comm
+        gdim, bs = V.mesh.geometry.dim, V.dofmap.index_map_bs
+        index_map = V.dofmap.index_map
+        if u is None:
+            self.displacement.x.array[:] = 0.0
+        else:
+            self.displacement.x.array[:] = u.x.array
+        moved = None if u is None else self.displacement.x.array
+        points = self._positions
+        if moved is not None:
+            points = points + moved.reshape(-1, bs)[self._nodes][:, :gdim]
+        every_node = np.concatenate(comm.allgather(index_map.local_to_global(self._nodes)))
+        every_point = np.vstack(comm.allgather(points)).reshape(-1, gdim)
+        every_position = np.vstack(comm.allgather(self._positions)).reshape(-1, gdim)
+        master = self._master
+        master.move(moved)
+        distance, facet, xi, outer = master.closest(every_point, self.direction)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
         nearest = np.empty_like(distance)
         comm.Allreduce(distance, nearest, op=MPI.MIN)
@@ -228,44 +372,76 @@ class Pairing:
         winner = np.empty_like(candidate)
         comm.Allreduce(candidate, winner, op=MPI.MIN)
         mine = np.flatnonzero(winner == comm.rank)
+        facet, xi = facet[mine], xi[mine]
 
+        # T's rows: the basis functions of the partner's cell at the partner point; those
+        # of the nodes off the facet vanish on it, and at a node all but one: round-off,
+        # left out so that T couples only the nodes it pairs
+        values = np.zeros((0, master.element.dim))
+        if len(mine):  # (basix tabulates no empty set of points)
+            values = master.element.tabulate(0, master.reference_point(facet, xi))[0, :, :, 0]
+        kept = np.abs(values) > _ROUNDOFF
+        owner = np.repeat(np.arange(len(mine)), kept.sum(axis=1))  # of each kept value
+        columns = index_map.local_to_global(master.dofs[facet][kept].astype(np.int32))
+        component = np.arange(bs)
+        order = np.argsort((owner[:, None] * bs + component).ravel(), kind="stable")
+        columns = (columns[:, None] * bs + component).ravel()[order]
+        entries = np.repeat(values[kept], bs)[order]
+        rows = (every_node[mine][:, None] * bs + component).ravel()
+        indptr = np.concatenate([[0], np.cumsum(np.repeat(kept.sum(axis=1), bs))])
         size = (index_map.size_local * bs, index_map.size_global * bs)
         per_cell = master.element.dim
-        self.T = PETSc.Mat().createAIJ((size, size), nnz=(per_cell, per_cell), comm=comm)
-        self.T.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        normal, gap = compat.create_vector(V), compat.create_vector(V)
-        dofmap = compat.dofmap_array(V)
-        for q in mine:
-            cell = master.cells[facet[q]]
-            values = master.element.tabulate(0, X[q][None, :])[0, 0, :, 0]
-            # the basis functions of the nodes off the facet vanish on it, and at a node
-            # all but one: round-off, left out so that T couples only the nodes it pairs
-            kept = np.abs(values) > _ROUNDOFF
-            values = values[kept]
-            columns = index_map.local_to_global(dofmap[cell][kept].astype(np.int32))
-            point = master._point(facet[q], self._xi(master, facet[q], X[q]))[0]
-            rows = (every_node[q] * bs + np.arange(bs)).astype(PETSc.IntType)
-            for component in range(bs):
-                self.T.setValues(
-                    rows[component], (columns * bs + component).astype(PETSc.IntType), values
-                )
-            normal.setValues(rows, -outer[q][:bs])
-            gap.setValues(rows, (point - every_point[q])[:bs])
-        self.T.assemble()
-        self.normal, self.gap_vector = fem.Function(V), fem.Function(V)
-        for vector, function in ((normal, self.normal), (gap, self.gap_vector)):
+        T = PETSc.Mat().createAIJ((size, size), nnz=(per_cell, per_cell), comm=comm)
+        T.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        T.setValuesIJV(
+            indptr.astype(PETSc.IntType), columns.astype(PETSc.IntType), entries,
+            PETSc.InsertMode.INSERT_VALUES, rows.astype(PETSc.IntType),
+        )  # fmt: skip
+        T.assemble()
+        if self.T is not None:
+            self.T.destroy()
+        self.T = T
+
+        partner = master.points(facet, xi, displaced=False)[0]  # its reference position
+        nodal = {
+            self.normal: -outer[mine][:, :bs],
+            self.gap_vector: (partner - every_position[mine])[:, :bs],
+            self._scale: np.repeat(master.size[facet][:, None], bs, axis=1),
+        }
+        for function, value in nodal.items():
+            vector = compat.create_vector(V)
+            vector.setValues(rows.astype(PETSc.IntType), np.ascontiguousarray(value).ravel())
             vector.assemble()
             compat.petsc_vector(function).array[:] = vector.array
             function.x.scatter_forward()
             vector.destroy()
+        self._paired_relative = self._relative(self.displacement)
+        self.generation += 1
 
-    @staticmethod
-    def _xi(master: _MasterSurface, i: int, X: np.ndarray) -> np.ndarray:
-        """The facet coordinates of the reference point X of facet i."""
-        edges = master.edges[i]
-        if not edges.size:
-            return np.zeros(0)
-        return np.linalg.lstsq(edges, X - master.origins[i], rcond=None)[0]
+    def _relative(self, u: fem.Function) -> np.ndarray:
+        """u - T u at the owned slave nodes, (nodes, bs)."""
+        self.T.mult(compat.petsc_vector(u), self._partner_work)
+        bs = self.V.dofmap.index_map_bs
+        relative = compat.petsc_vector(u).array_r - self._partner_work.array_r
+        return relative.reshape(-1, bs)[self._nodes]
+
+    def slid(self, u: fem.Function, fraction: float = REPAIR_SLIP) -> bool:
+        """Whether a slave node near the master surface (its gap below the size of its
+        partner's facet) has slid along it, relative to its partner and since the pairing,
+        by more than ``fraction`` of that size: the tangential part of the change of
+        u - T u (collective). The nodes farther away do not count: the contact terms
+        vanish there."""
+        bs = self.V.dofmap.index_map_bs
+        relative = self._relative(u)
+        n = self.normal.x.array.reshape(-1, bs)[self._nodes]
+        change = relative - self._paired_relative
+        tangential = change - np.einsum("nd,nd->n", change, n)[:, None] * n
+        scale = self._scale.x.array.reshape(-1, bs)[self._nodes, 0]
+        g = self.gap_vector.x.array.reshape(-1, bs)[self._nodes]
+        near = np.einsum("nd,nd->n", g - relative, n) < scale
+        slid = np.linalg.norm(tangential[near], axis=1) / scale[near]
+        local = np.max(slid, initial=0.0)
+        return self.V.mesh.comm.allreduce(local, op=MPI.MAX) > fraction
 
     def apply(self, source: fem.Function, target: fem.Function) -> None:
         """target = T source (the partner values at the slave nodes)."""
@@ -274,6 +450,7 @@ class Pairing:
 
     def destroy(self) -> None:
         self.T.destroy()
+        self._partner_work.destroy()
 
 
 class _PartnerSurface:
@@ -302,13 +479,19 @@ class PairContact(NitscheContact):
     Args:
         pairing: The :class:`Pairing` of Gamma_1 with Gamma_2.
         weight: 1 (biased) or 1/2 (a half of the unbiased variant).
+        follow: Pair the surfaces again in the configuration of the last converged step
+            when they have slid (:meth:`Pairing.slid`); False: in the reference
+            configuration only.
         The others are those of :class:`~nitsche_dolfinx.contact.NitscheContact`.
     """
 
-    def __init__(self, pairing, ds, stress, gamma_h, nitsche_theta, weight: float):
+    def __init__(
+        self, pairing, ds, stress, gamma_h, nitsche_theta, weight: float, follow: bool = True
+    ):
         super().__init__(_PartnerSurface(pairing), ds, stress, gamma_h, nitsche_theta)
         self.pairing = pairing
         self.weight = float(weight)
+        self.follow = bool(follow)
         self.partners: dict = {}  # Function -> its partner T f
 
     def track(self, functions) -> None:
@@ -369,13 +552,15 @@ class PairContact(NitscheContact):
         return self.weight * super().area(u)
 
 
-def pair_halves(problem, tag_a: int, tag_b: int, variant: str, direction) -> list[PairContact]:
+def pair_halves(
+    problem, tag_a: int, tag_b: int, variant: str, direction, follow: bool = True
+) -> list[PairContact]:
     """The biased halves of a contact pair of ``problem`` (a
     :class:`~nitsche_dolfinx.model.ContactProblem`) between the facets ``tag_a`` and
     ``tag_b``: one, slave ``tag_a``, with weight 1 (``"biased"``), or one per surface
     with weight 1/2 (``"unbiased"``); paired along the unit vector ``direction`` (from
     ``tag_a`` towards ``tag_b``; reversed for the other half) or, None, with closest
-    points."""
+    points; ``follow``: paired again as the surfaces slide (:meth:`Pairing.slid`)."""
     facets = {tag: problem.facets(tag) for tag in (tag_a, tag_b)}
     sides = [(tag_a, tag_b, direction)]
     if variant == "unbiased":
@@ -392,6 +577,7 @@ def pair_halves(problem, tag_a: int, tag_b: int, variant: str, direction) -> lis
                 problem.gamma_h,
                 problem.nitsche_theta,
                 weight,
+                follow,
             )  # fmt: skip
         )
     return halves

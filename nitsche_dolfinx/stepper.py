@@ -221,6 +221,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
         #: The energy dissipated by damping since t = 0, and by the last step (docs/method.md
         #: section 14).
         self.damping_dissipation, self._damping_step = 0.0, 0.0
+        self.pairing_energy = 0.0  # E_Theta changed by pairings (docs/method.md section 11)
         self._damping_power = None
         if problem.damping is not None:
             moments = self.diagnostics.moments
@@ -319,6 +320,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
         if self._damping_power is not None:
             values["damping_dissipation"] = self.damping_dissipation
         values["newton_iterations"] = self.newton_iterations
+        values["pairing_energy"] = self.pairing_energy
         values["step_seconds"] = self.step_seconds
         values["dt"] = self.last_dt
         values["step_cuts"] = self.step_cuts
@@ -375,6 +377,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
         self._arrive(t_new, dt, cuts)
         problem.set_time(self.t)
         problem.move_obstacles(self.t)
+        self.pairing_energy += self.diagnostics.follow_pairs(self.step_index)
         self.newton_iterations = iterations
         self.step_seconds = time.perf_counter() - start
         return iterations
@@ -469,7 +472,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
-        return {**functions, **self._balance_functions()}
+        return {**functions, **self._balance_functions(), **self.problem.pairing_state()}
 
     def describe(self) -> dict[str, Any]:
         return checkpoint_description(self)
@@ -478,12 +481,15 @@ class NitscheStepper(TimeLevels, BalanceSums):
         """The clock, and what the next inexact linear solve depends on, for a checkpoint."""
         moved = self.solver.linear_tolerances.last_move
         levels = {**super().levels(), "contact_set_moved": moved, **self._saved_sums()}
+        if self.problem.pairs:
+            levels["pairing_energy"] = self.pairing_energy
         if self._damping_power is not None:  # the running total (docs/method.md section 14)
             levels["damping_dissipation"] = self.damping_dissipation
         return levels
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
+        self.problem.restore_pairs()
         # (an int: the last iterate at which the set moved; a bool in older checkpoints)
         self.solver.linear_tolerances.last_move = int(saved.get("contact_set_moved", 0))
         self.diagnostics.remember(step_index, None)  # the loaded state's are computed anew
@@ -491,6 +497,7 @@ class NitscheStepper(TimeLevels, BalanceSums):
         self.step_seconds = 0.0
         self.damping_dissipation = float(saved.get("damping_dissipation", 0.0))
         self._damping_step = 0.0
+        self.pairing_energy = float(saved.get("pairing_energy", 0.0))
         self.problem.set_time(t)
         self.problem.move_obstacles(t)
         self._load_sums(saved, self._load_vector() if self._external is not None else None)

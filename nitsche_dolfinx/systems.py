@@ -265,12 +265,12 @@ class AffineSystem(_Base):
             )
         self.sum = JacobianSum(self.K_bc, self.facet)
         self._at_zero = None
+        self.coupling = forms.coupling
         self.update_K()
         if forms.state:
             self._at_zero = CellResidualAtZero(F_cell, u, forms.state, matrix_type)
         self.F0 = compat.create_vector(F_cell.arguments()[0].ufl_function_space())
         self._Kx = self.F0.duplicate()
-        self.coupling = forms.coupling
         #: Skip the facet Jacobian while the activity is zero everywhere; False assembles
         #: it at every evaluation (the reference the skip is checked by).
         self.skip_inactive_facets = True
@@ -303,11 +303,14 @@ class AffineSystem(_Base):
 
     def _key(self) -> tuple:
         key = tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
+        if self.coupling is not None:  # the pairs' affine facet terms hold their normals
+            key = (*key, *self.coupling.pairings())
         return key if self._damped is None else (*key, *self._damped.key())
 
     def constants_changed(self) -> bool:
         """Whether a constant of K_bc (the time step, gamma0, Theta, a material constant)
-        has another value than at the last :meth:`update_K`."""
+        or the pairing of a contact pair has another value than at the last
+        :meth:`update_K`."""
         return self._key() != self._constants_key
 
     @property

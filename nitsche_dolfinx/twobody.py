@@ -236,13 +236,15 @@ def two_bodies_problem(
     comm=MPI.COMM_WORLD,
     gamma0_scaling: str = "absolute",
     mass: str = "consistent",
+    follow: bool = True,
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
     each other along the last axis at speeds v0, without gravity. ``along_axis``: the
     surfaces are paired along that axis (then the pair is exactly one body on a rigid
     plane with gamma0 / 2, docs/method.md section 11); else with closest points.
-    ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`.
+    ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`; ``follow``: that of
+    :meth:`~nitsche_dolfinx.model.ContactProblem.add_contact_pair`.
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
@@ -254,7 +256,8 @@ def two_bodies_problem(
     )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0
-    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant, down if along_axis else None)
+    direction = down if along_axis else None
+    problem.add_contact_pair(UPPER_CONTACT, LOWER_CONTACT, variant, direction, follow)
 
     towards = np.zeros(dim)
     towards[-1] = v0

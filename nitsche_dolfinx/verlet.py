@@ -212,6 +212,7 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         self.friction_dissipation = 0.0
         #: The energy dissipated by damping since t = 0, and by the last step
         self.damping_dissipation, self._damping_step = 0.0, 0.0
+        self.pairing_energy = 0.0  # E_Theta changed by pairings (docs/method.md section 11)
         self._energy_before = None
         # the energy balance (docs/method.md section 13): the obstacles' work and the contact
         # dissipation, the work of the loads and the supports, the supports' reactions
@@ -424,6 +425,7 @@ class ExplicitStepper(TimeLevels, BalanceSums):
             self._damp(dt)
         self._arrive(t_new, dt, cuts)
         self.problem.move_obstacles(self.t)
+        self.pairing_energy += self.diagnostics.follow_pairs(self.step_index)
         self.step_seconds = time.perf_counter() - start
         return 0
 
@@ -518,6 +520,7 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         if self._damping is not None:
             values["damping_dissipation"] = self.damping_dissipation
         values["newton_iterations"] = 0
+        values["pairing_energy"] = self.pairing_energy
         values["step_seconds"] = self.step_seconds
         values["dt"] = self.last_dt
         values["step_cuts"] = self.step_cuts
@@ -539,7 +542,7 @@ class ExplicitStepper(TimeLevels, BalanceSums):
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
-        return {**functions, **self._balance_functions()}
+        return {**functions, **self._balance_functions(), **self.problem.pairing_state()}
 
     def _sums_now(self) -> tuple:
         """The running sums (:meth:`BalanceSums._running_sums`), None without any."""
@@ -573,6 +576,8 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         and the last step's size (the level's damping force lags by half of it), for a
         checkpoint."""
         levels = {**super().levels(), **self._saved_sums()}
+        if self.problem.pairs:
+            levels["pairing_energy"] = self.pairing_energy
         if self._damping is not None:
             levels["damping_dissipation"] = self.damping_dissipation
             levels["damping_last_dt"] = self.last_dt
@@ -580,6 +585,8 @@ class ExplicitStepper(TimeLevels, BalanceSums):
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         self._restore_levels(t, step_index, saved)
+        self.problem.restore_pairs()
+        self.pairing_energy = float(saved.get("pairing_energy", 0.0))
         if self._damping is not None:  # the level's force F^n: v^{n-1/2} = v^n - tau/2 a^n
             self.damping_dissipation = float(saved.get("damping_dissipation", 0.0))
             self._damping_step = 0.0
