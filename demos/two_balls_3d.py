@@ -24,7 +24,12 @@
 # - check the pair against one ball on a rigid plane: paired along the axis,
 #   the unbiased pair with $\gamma_0$ is exactly one ball hitting the plane of
 #   symmetry with $\gamma_0/2$ (docs/method.md section 11);
-# - record the total momentum, which the contact terms keep.
+# - declare each body (`ContactProblem.add_body`) and record its momentum, centre of
+#   mass and angular momentum, and the totals, which the contact terms keep;
+# - hit off-centre (`--offset D --no-compare`; `--pairing closest` for an oblique
+#   force): the moment of the momenta about the nodes' reference positions is kept,
+#   the angular momentum about their current positions to the size of the motion
+#   (docs/method.md section 4).
 #
 # With the hybrid scheme and $\Theta = 1$, $E_\Theta$ never increases.
 
@@ -48,13 +53,13 @@ from nitsche_dolfinx.arguments import (
     step_taken,
 )
 from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import HISTORY_COLUMNS
+from nitsche_dolfinx.history import HISTORY_COLUMNS, angular_momentum_columns, body_columns
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import written_to
 from nitsche_dolfinx.shapes import ball_mesh, check_body_mesh, disk_mesh
-from nitsche_dolfinx.twobody import two_bodies_problem
+from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, two_bodies_problem
 
 PICTURE_TIME = 8.0  # about the largest compression, at the default v0 and gap
 # -
@@ -70,6 +75,10 @@ def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
     parser.add_argument("--mesh-size", type=finite_float, default=8.0, help="mesh size h")
     parser.add_argument("--v0", type=finite_float, default=1.0, help="speed of each body")
     parser.add_argument("--gap", type=finite_float, default=1.0, help="initial gap")
+    parser.add_argument(
+        "--offset", type=finite_float, default=0.0,
+        help="distance of the centres across the collision axis (an off-centre hit)",
+    )  # fmt: skip
     parser.add_argument("--variant", choices=("unbiased", "biased"), default="unbiased")
     parser.add_argument(
         "--pairing", choices=("axis", "closest"), default="axis",
@@ -88,25 +97,37 @@ def check_arguments(args, dim: int) -> None:
     method_parameters(args)
     require(args.v0 > 0, "v0", args.v0, "the bodies must move towards each other")
     require(args.gap >= 0, "gap", args.gap, "the gap must be >= 0")
+    require(abs(args.offset) < 40.0, "offset", args.offset, "less than a diameter (40)")
+    require(
+        args.offset == 0 or not args.compare, "offset", args.offset,
+        "the check against one body on a plane is for a head-on hit: add --no-compare",
+    )  # fmt: skip
     check_body_mesh(args.mesh_size, order=2, radius=20.0, dim=dim)
     check_output_folder(args.out)
 
 
 # ## The pair and the body on a plane
 #
-# The body on the plane runs at the pair's step: with `--scheme verlet`, `--dt` is
-# by default `auto`, the scheme's share of the stable step it estimates for the pair.
+# Each body is declared by its cell tag: the history gets its momentum
+# `momentum_1_x`, ..., its centre of mass and its angular momentum about the origin,
+# after the columns of the output contract and the totals. The body on the plane runs
+# at the pair's step: with `--scheme verlet`, `--dt` is by default `auto`, the
+# scheme's share of the stable step it estimates for the pair.
 
 
 def run_pair(args, dim: int, snapshot: Snapshot):
-    problem, _ = two_bodies_problem(
+    problem, cells = two_bodies_problem(
         dim=dim, mesh_size=args.mesh_size, v0=args.v0, gap=args.gap, degree=args.degree,
         gamma0=args.gamma0, nitsche_theta=args.nitsche_theta, variant=args.variant,
         along_axis=args.pairing == "axis", gamma0_scaling=args.gamma0_scaling,
-        mass=scheme_mass(args),
+        mass=scheme_mass(args), offset=args.offset,
     )  # fmt: skip
+    for tag in (UPPER_BODY, LOWER_BODY):
+        problem.add_body(tag, cells)
     momentum = [f"momentum_{c}" for c in "xyz"[:dim]]
-    columns = (*HISTORY_COLUMNS[:11], *momentum)
+    bodies = [*body_columns(UPPER_BODY, dim), *body_columns(LOWER_BODY, dim)]
+    angular = [*angular_momentum_columns(dim), *angular_momentum_columns(dim, reference=True)]
+    columns = (*HISTORY_COLUMNS[:11], *momentum, *angular, *bodies)
     return _run(args, problem, args.out, columns, args.quiet, snapshot)
 
 
@@ -155,11 +176,19 @@ def main(dim: int = 3, body: str = "ball", argv: list[str] | None = None) -> Non
     touching = "never" if contact is None else f"from t = {contact[0]:.3f} to {contact[1]:.3f}"
     momentum = max(np.abs(pair[f"momentum_{c}"]).max() for c in "xyz"[:dim])
     mass = np.pi * 20.0**2 if dim == 2 else 4 / 3 * np.pi * 20.0**3
+    angular = [
+        max(np.ptp(pair[name]) / mass / args.v0 / 20.0 for name in names)
+        for names in (angular_momentum_columns(dim), angular_momentum_columns(dim, True))
+    ]
     print(f"{len(pair) - 1} steps of tau = {args.dt:g} in {seconds:.1f} s; contact {touching}")
     print(
         f"E(T)/E(0) - 1 = {pair.energy_drift():+.3e}, largest rise of E_Theta "
         f"{pair.largest_rise():.2e}, largest |momentum| / (m v0) "
         f"{momentum / mass / args.v0:.1e}, Newton {pair.mean_newton_iterations():.2f} per step"
+    )
+    print(
+        f"angular momentum: largest change / (m v0 R) {angular[0]:.1e}, about the reference "
+        f"positions {angular[1]:.1e}"
     )
     if plane is not None:
         one = plane[0]

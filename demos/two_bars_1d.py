@@ -20,7 +20,8 @@
 #
 # - build two bodies in one mesh and pair their facing ends with
 #   `ContactProblem.add_contact_pair` (`nitsche_dolfinx.twobody.two_bars_problem`);
-# - record the total momentum and each bar's mean velocity;
+# - record the total momentum and each bar's mean velocity, and declare each bar a
+#   body (`ContactProblem.add_body`) for its momentum and centre of mass;
 # - measure the errors of the contact duration, the exit velocities and the
 #   energy under refinement, at a fixed ratio tau / h (`--refine N`);
 # - draw the energies and the bars in space and time, coloured by their velocity
@@ -50,7 +51,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.exact import two_bars_errors
-from nitsche_dolfinx.history import History
+from nitsche_dolfinx.history import History, body_columns
 from nitsche_dolfinx.parameters import require
 from nitsche_dolfinx.pictures import Worldlines, render_worldlines
 from nitsche_dolfinx.plotting import energy_figure, figure_title, two_bars_figure
@@ -63,10 +64,11 @@ from nitsche_dolfinx.twobody import (
 )
 
 #: The columns of history.csv (the output contract of the two-body demos), then the parts
-#: of the energy for its figure.
+#: of the energy for its figure and the bodies' columns (the right bar's, the left one's).
 COLUMNS = (
     "t", "energy", "energy_theta", "contact_force", "momentum", "v_left", "v_right",
     "newton_iterations", "kinetic", "elastic", "potential",
+    *body_columns(UPPER_BODY, 1), *body_columns(LOWER_BODY, 1),
 )  # fmt: skip
 # -
 
@@ -112,6 +114,8 @@ def run(args, nx: int, dt: float, out: str | None, quiet: bool, callback=None) -
         nitsche_theta=args.nitsche_theta, variant=args.variant,
         gamma0_scaling=args.gamma0_scaling, mass=scheme_mass(args),
     )  # fmt: skip
+    for tag in (UPPER_BODY, LOWER_BODY):
+        problem.add_body(tag, cells)
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=dt, t_end=args.t_end, progress=not quiet,
         max_step_cuts=args.max_step_cuts,

@@ -373,8 +373,13 @@ def _cells(cell_tags, tag: int, where: str, key: str, source: str, comm) -> None
 
 
 def _body_velocities(problem, bodies: list, cell_tags, source: str):
+    """Declare each [[body]] a body of the problem (its history columns) and return the
+    initial velocity its tables give."""
     for index, body in enumerate(bodies):
-        _cells(cell_tags, body["tag"], f"[[body]] #{index + 1}", "tag", source, problem.mesh.comm)
+        where = f"[[body]] #{index + 1}"
+        _cells(cell_tags, body["tag"], where, "tag", source, problem.mesh.comm)
+        with reported_at(where, source):
+            problem.add_body(body["tag"], cell_tags)
     velocities = {body["tag"]: np.asarray(body["velocity"], dtype=float) for body in bodies}
     return body_velocities(problem, cell_tags, velocities)
 

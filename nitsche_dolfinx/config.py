@@ -62,6 +62,7 @@ from .history import (
     OBSTACLE_COLUMNS,
     PAIRING_COLUMNS,
     WORK_COLUMNS,
+    body_columns,
 )
 from .keys import KINDS
 from .mesh_generators import GENERATOR_KEYS, check_generator
@@ -417,7 +418,7 @@ def output_parameters(
 
 def history_columns(config: dict, simulation) -> list[str]:
     """The columns of ``history.csv``: ``[output] columns``, or those of the 2D/3D demos
-    (with the energy balance under friction) and then the probes."""
+    (with the energy balance under friction), the probes and the [[body]] tables' columns."""
     columns = config.get("output", {}).get("columns")
     if columns is not None:
         return list(columns)
@@ -430,4 +431,5 @@ def history_columns(config: dict, simulation) -> list[str]:
     supports = reaction_columns(tags, problem.gdim)
     balance = WORK_COLUMNS if tags or work else ()
     probes = (probe["name"] for probe in config.get("probe", []))
-    return [*base, *work, *damping, *pairing, *supports, *balance, *probes]
+    bodies = (name for body in problem.bodies for name in body_columns(body.tag, problem.gdim))
+    return [*base, *work, *damping, *pairing, *supports, *balance, *probes, *bodies]

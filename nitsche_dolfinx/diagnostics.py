@@ -19,7 +19,12 @@ from ufl.algorithms.map_integrands import map_integrands
 
 from . import compat
 from .collective import max_over_ranks, sum_over_ranks
-from .history import centre_of_mass_columns, momentum_columns
+from .history import (
+    angular_momentum_columns,
+    body_columns,
+    centre_of_mass_columns,
+    momentum_columns,
+)
 
 __all__ = [
     "ON_REQUEST",
@@ -219,11 +224,15 @@ class Penetration:
 
 
 class MassMoments:
-    """The mass of the body and its first moments, from its mass matrix M (consistent,
-    or the lumped or redistributed diagonal): the kinetic energy 1/2 v . M v, the total
-    linear momentum (the rows of M v summed by component) and the centre of mass (those of
+    """The mass of the body and its moments, from its mass matrix M (consistent, or the
+    lumped or redistributed diagonal): the kinetic energy 1/2 v . M v, the total linear
+    momentum (the rows of M v summed by component), the centre of mass (those of
     M (x + u), over the mass; x the positions of the nodes, which the displacement space
-    interpolates exactly when it holds the geometry).
+    interpolates exactly when it holds the geometry) and the angular momentum about the
+    origin, sum_i (x_i + u_i) x (M v)_i over the nodes, and sum_i x_i x (M v)_i, the one
+    linear elasticity keeps (docs/method.md section 4); the first three also over the
+    nodes of each body of the model (``ContactProblem.add_body``), whose rows are its own
+    mass matrix's.
 
     Args:
         model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
@@ -231,6 +240,7 @@ class MassMoments:
 
     def __init__(self, model):
         self.comm = model.mesh.comm
+        self.model = model
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         diagonal = model.mass_diagonal()
         if diagonal is None:
@@ -239,19 +249,36 @@ class MassMoments:
             self.matrix = _diagonal_matrix(diagonal)
             self.matrix.assemble()
         self._work = self.matrix.createVecLeft()
+        self._displaced = self.matrix.createVecLeft()  # M u
         self.bs = model.V.dofmap.index_map_bs
         self.momentum_names = momentum_columns(self.bs)
         self.centre_names = centre_of_mass_columns(self.bs)
+        self.angular_names = angular_momentum_columns(self.bs)
+        self.reference_names = angular_momentum_columns(self.bs, reference=True)
         positions = fem.Function(model.V)
         positions.interpolate(lambda x: x[: self.bs])
-        self._first_moment = self.sums(positions)  # of the undeformed body
+        #: The nodes' positions (owned rows) and the rows of M x (of the undeformed body).
+        self._positions = self._rows(positions.x.array).copy()
+        self._first_moment_rows = self._rows(self._product(positions, self._work)).copy()
+        self._first_moment = sum_over_ranks(self.comm, self._first_moment_rows.sum(axis=0))
         positions.x.array[:] = 1.0
-        self.mass = float(self.sums(positions)[0])
+        self._mass_rows = self._rows(self._product(positions, self._work))[:, 0].copy()
+        self.mass = float(sum_over_ranks(self.comm, [self._mass_rows.sum()])[0])
+        self._body_masses: list[float] = []  # of model.bodies, once asked for
+
+    def _rows(self, array) -> np.ndarray:
+        """The owned part of a dof array, one row per node."""
+        owned = self._work.getLocalSize()
+        return np.asarray(array)[:owned].reshape(-1, self.bs)
+
+    def _product(self, function, out) -> np.ndarray:
+        """M f into ``out``; its owned entries."""
+        self.matrix.mult(compat.petsc_vector(function), out)
+        return out.array
 
     def sums(self, function) -> np.ndarray:
         """M f summed by component over all ranks (M f stays in the work vector)."""
-        self.matrix.mult(compat.petsc_vector(function), self._work)
-        return sum_over_ranks(self.comm, self._work.array.reshape(-1, self.bs).sum(axis=0))
+        return sum_over_ranks(self.comm, self._rows(self._product(function, self._work)).sum(0))
 
     def momentum(self, v) -> np.ndarray:
         """The total linear momentum, by component: the rows of M v summed."""
@@ -262,22 +289,51 @@ class MassMoments:
         self.matrix.mult(compat.petsc_vector(v), self._work)
         return 0.5 * self._work.dot(compat.petsc_vector(v))
 
-    def kinetic_and_momentum(self, v) -> tuple[float, np.ndarray]:
-        """1/2 v . M v and the momentum, by component."""
-        momentum = self.sums(v)
-        return 0.5 * self._work.dot(compat.petsc_vector(v)), momentum
-
     def centre_of_mass(self, u) -> np.ndarray:
         """The centre of mass of the body deformed by ``u``, by component."""
         return (self._first_moment + self.sums(u)) / self.mass
 
+    def _angular(self, positions: np.ndarray, momenta: np.ndarray) -> np.ndarray:
+        """sum_i x_i x p_i over the rows (2D: its z component; 1D: none)."""
+        if self.bs == 1:
+            return np.zeros(0)
+        if self.bs == 2:
+            return np.array(
+                [np.sum(positions[:, 0] * momenta[:, 1] - positions[:, 1] * momenta[:, 0])]
+            )
+        return np.cross(positions, momenta).sum(axis=0)
+
     def values(self, u, v) -> dict[str, float]:
-        """The momentum and centre-of-mass columns at the state (u, v)."""
-        _, momentum = self.kinetic_and_momentum(v)
-        return {
+        """The momentum, centre-of-mass and angular momentum columns at the state (u, v),
+        of the whole mesh and of each body, with one reduction over the ranks."""
+        momenta = self._rows(self._product(v, self._work))
+        displaced = self._rows(self._product(u, self._displaced))
+        current = self._positions + self._rows(u.x.array)
+        parts = [momenta, displaced, current]
+        local = [momenta.sum(0), displaced.sum(0), self._angular(current, momenta)]
+        local.append(self._angular(self._positions, momenta))
+        bodies = self.model.bodies
+        for body in bodies:
+            momenta_b, displaced_b, current_b = (part[body.nodes] for part in parts)
+            moment = self._first_moment_rows[body.nodes].sum(0) + displaced_b.sum(0)
+            local += [momenta_b.sum(0), moment, self._angular(current_b, momenta_b)]
+        if len(self._body_masses) != len(bodies):
+            self._body_masses = sum_over_ranks(
+                self.comm, [self._mass_rows[body.nodes].sum() for body in bodies]
+            ).tolist()
+        ends = np.cumsum([part.size for part in local])[:-1]
+        sums = iter(np.split(sum_over_ranks(self.comm, np.concatenate(local)), ends))
+        momentum, centre = next(sums), (self._first_moment + next(sums)) / self.mass
+        values = {
             **dict(zip(self.momentum_names, momentum.tolist())),
-            **dict(zip(self.centre_names, self.centre_of_mass(u).tolist())),
+            **dict(zip(self.centre_names, centre.tolist())),
+            **dict(zip(self.angular_names, next(sums).tolist())),
+            **dict(zip(self.reference_names, next(sums).tolist())),
         }
+        for body, mass in zip(bodies, self._body_masses):
+            each = [next(sums), next(sums) / mass, next(sums)]
+            values.update(zip(body_columns(body.tag, self.bs), np.concatenate(each).tolist()))
+        return values
 
 
 class Diagnostics:
@@ -405,9 +461,7 @@ class Diagnostics:
             values["penetration_max"] = self.penetration.max()
         if self.moments.momentum_names[0] in values:
             return values  # (completed before)
-        values.update(zip(self.moments.momentum_names, self.moments.momentum(self.v).tolist()))
-        centre = self.moments.centre_of_mass(self.u).tolist()
-        values.update(zip(self.moments.centre_names, centre))
+        values.update(self.moments.values(self.u, self.v))
         if len(self.model.contacts) == 1:  # its totals are the sums
             values["contact_force_1"] = values["contact_force"]
             values["contact_area_1"] = values["contact_area"]

@@ -23,6 +23,8 @@ __all__ = [
     "DAMPING_COLUMNS",
     "PAIRING_COLUMNS",
     "added_columns",
+    "angular_momentum_columns",
+    "body_columns",
     "centre_of_mass_columns",
     "contact_columns",
     "momentum_columns",
@@ -88,6 +90,32 @@ def centre_of_mass_columns(gdim: int) -> tuple[str, ...]:
     ``centre_of_mass_x``, ...: the rows of M (x + u) summed by component over the mass
     (x the nodes' positions: exact for a space that holds the geometry)."""
     return _by_component("centre_of_mass", gdim)
+
+
+def angular_momentum_columns(gdim: int, reference: bool = False) -> tuple[str, ...]:
+    """The total angular momentum about the origin, sum_i (x_i + u_i) x (M v)_i over the
+    nodes (docs/method.md section 4): ``angular_momentum_z`` in 2D, ``angular_momentum_x``,
+    ``angular_momentum_y``, ``angular_momentum_z`` in 3D, none in 1D. ``reference``: that
+    about the nodes' reference positions, sum_i x_i x (M v)_i, which linear elasticity
+    keeps (``angular_momentum_reference_z``, ...)."""
+    name = "angular_momentum_reference" if reference else "angular_momentum"
+    return {1: (), 2: (f"{name}_z",)}.get(gdim, _by_component(name, 3))
+
+
+def body_columns(tag: int, gdim: int) -> tuple[str, ...]:
+    """The columns of the body of cell tag ``tag``: its momentum, its centre of mass and its
+    angular momentum about the origin, the sums over its nodes only (``momentum_<tag>_x``,
+    ..., ``centre_of_mass_<tag>_x``, ..., ``angular_momentum_<tag>_z``, ...; in 1D
+    ``momentum_<tag>``, ``centre_of_mass_<tag>``)."""
+    return tuple(
+        name.replace(quantity, f"{quantity}_{tag}", 1)
+        for quantity, names in (
+            ("momentum", momentum_columns(gdim)),
+            ("centre_of_mass", centre_of_mass_columns(gdim)),
+            ("angular_momentum", angular_momentum_columns(gdim)),
+        )
+        for name in names
+    )
 
 
 def contact_columns(count: int) -> tuple[str, ...]:

@@ -70,8 +70,8 @@ def _two_bars(comm, nx, gap):
     return two_bars_mesh(nx, gap, comm)
 
 
-def _mirrored_bodies(comm, dim, mesh_size, order, gap):
-    return mirrored_bodies_mesh(dim, mesh_size, order, gap, comm)
+def _mirrored_bodies(comm, dim, mesh_size, order, gap, offset):
+    return mirrored_bodies_mesh(dim, mesh_size, order, gap, comm, offset)
 
 
 def _ball_on_slab(comm, dim, mesh_size, radius, width, thickness, gap):
@@ -121,8 +121,9 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
     ),
     "mirrored_bodies": MeshGenerator(
         "the disk (dim = 2) or ball (dim = 3) of the impact test, lowest point gap/2 above "
-        "the plane x_dim = 0, and its mirror image (twobody.mirrored_bodies_mesh)",
-        {"dim": 2, "mesh_size": 8.0, "order": 2, "gap": 0.0},
+        "the plane x_dim = 0, and its mirror image; offset: the two that far apart along x "
+        "(twobody.mirrored_bodies_mesh)",
+        {"dim": 2, "mesh_size": 8.0, "order": 2, "gap": 0.0, "offset": 0.0},
         _mirrored_bodies,
         None,
         "cells 1 upper body, 2 lower body; facets 1 upper body's lower half, 2 lower body's "
@@ -170,6 +171,8 @@ GENERATOR_KEYS: dict[str, Key] = {
     "center": _key("vector", "centre of the disk or ball", lambda c: True, ""),
     "gap": _key("number", "initial gap between the bodies", lambda g: g >= 0, ">= 0"),
     "dim": _key("integer", "2 (disks) or 3 (balls)", (2, 3).__contains__, "2 or 3"),
+    "offset": _key("number", "distance of the bodies' centres along x (an off-centre hit)",
+                   lambda d: abs(d) < 40.0, "less than a diameter (40) in magnitude"),
 }  # fmt: skip
 
 

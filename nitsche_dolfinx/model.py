@@ -26,6 +26,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from . import compat
+from .bodies import Body, make_body
 from .contact import NitscheContact, PenaltyContact
 from .damping import RayleighDamping
 from .dirichlet import DirichletCondition
@@ -165,6 +166,8 @@ class ContactProblem:
         self.contacts: list[NitscheContact] = []
         self.contact_tags: list[int] = []
         self.dirichlet: list[DirichletCondition] = []
+        #: The bodies whose moments the history reports (:meth:`add_body`).
+        self.bodies: list[Body] = []
         self._body_forces: list[ProblemValue] = []
         self._tractions: list[tuple[int, ProblemValue]] = []
         self.initial_displacement = None
@@ -237,6 +240,26 @@ class ContactProblem:
         )
         value = self._value(value, (1,), "Dirichlet value of a component")
         self.dirichlet.append(DirichletCondition(tag, value, int(component)))
+
+    def add_body(self, tag: int, cell_tags=None) -> Body:
+        """Declare the cells tagged ``tag`` a body: the history gets its linear momentum, its
+        centre of mass and its angular momentum about the origin (``momentum_<tag>_x``, ...,
+        :func:`~nitsche_dolfinx.history.body_columns`), from the rows of the mass matrix at
+        its nodes (docs/method.md section 4). Bodies share no node. Declare them before
+        the run (:meth:`~nitsche_dolfinx.simulation.Simulation.run`).
+
+        Args:
+            tag: The cell tag of the body.
+            cell_tags: The mesh's cell tags (default: those the problem was given).
+
+        Raises:
+            ParameterError: No cell tags, none of this tag, the tag given twice, or a node
+                shared with a body declared before.
+        """
+        cell_tags = self.cell_tags if cell_tags is None else cell_tags
+        body = make_body(self.V, cell_tags, tag, self.bodies)
+        self.bodies.append(body)
+        return body
 
     def add_body_force(self, value) -> None:
         """Add a volume force f: a vector, a function of t returning one, or a value in space

@@ -234,9 +234,11 @@ SCHEMA: dict[str, Table] = {
         array=True,
     ),
     "body": Table(
-        "a body of a two-body mesh (its cells tagged tag)",
+        "a body: the cells tagged tag, apart from the other bodies; its momentum, centre "
+        "of mass and angular momentum join the history (docs/method.md section 6)",
         {
-            "tag": Key("integer", REQUIRED, "cell tag"),
+            "tag": Key("integer", REQUIRED, "cell tag (a physical group of cells of a .msh "
+                       "file, or a body of a generated mesh)"),
             "velocity": Key("vector", REQUIRED, "its initial velocity"),
         },
         array=True,

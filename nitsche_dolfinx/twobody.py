@@ -61,9 +61,12 @@ UPPER_CONTACT, LOWER_CONTACT = 1, 2
 UPPER_FREE, LOWER_FREE = 3, 4
 
 
-def _mirror_into_new_model(gmsh, dim: int, gdim: int, groups: dict, plane: float = 0.0) -> None:
+def _mirror_into_new_model(
+    gmsh, dim: int, gdim: int, groups: dict, plane: float = 0.0, shift: float = 0.0
+) -> None:
     """Replace the current gmsh model by one holding its mesh and the mirror image of it
-    in the plane x_{gdim-1} = ``plane``, as discrete entities.
+    in the plane x_{gdim-1} = ``plane``, as discrete entities; ``shift``: the first is then
+    moved by shift / 2 along x, the image by -shift / 2.
 
     ``groups`` maps a physical group (dim, tag) of the current model to the pair of tags
     (own, mirrored) it gets in the new one."""
@@ -81,6 +84,8 @@ def _mirror_into_new_model(gmsh, dim: int, gdim: int, groups: dict, plane: float
             element_offset = max([element_offset, *(int(t.max()) for t in element_tags)])
     mirrored = coordinates.copy()
     mirrored[:, gdim - 1] = 2 * plane - mirrored[:, gdim - 1]
+    coordinates[:, 0] += shift / 2
+    mirrored[:, 0] -= shift / 2
     gmsh.model.add("mirrored pair")
     entity_of = {}
     for group_dim, tags, *_ in elements:
@@ -143,11 +148,17 @@ def two_bars_mesh(nx: int = 100, gap: float = 0.0, comm=MPI.COMM_WORLD):
 
 
 def mirrored_bodies_mesh(
-    dim: int, mesh_size: float = 8.0, order: int = 2, gap: float = 0.0, comm=MPI.COMM_WORLD
+    dim: int,
+    mesh_size: float = 8.0,
+    order: int = 2,
+    gap: float = 0.0,
+    comm=MPI.COMM_WORLD,
+    offset: float = 0.0,
 ):
     """The body of the impact test (the ball, ``dim=3``, or the disk, ``dim=2``; radius 20)
     with its lowest point at height gap/2, and its mirror image below the plane
-    x_{dim-1} = 0. Facets: :data:`UPPER_CONTACT` (the upper body's lower half),
+    x_{dim-1} = 0; ``offset``: the first moved by offset / 2 along x, the image by
+    -offset / 2 (an off-centre hit). Facets: :data:`UPPER_CONTACT` (the upper body's lower half),
     :data:`LOWER_CONTACT` (the lower body's upper half), :data:`UPPER_FREE`,
     :data:`LOWER_FREE`; cells :data:`UPPER_BODY`, :data:`LOWER_BODY`. Returns
     ``(mesh, cell_tags, facet_tags)``."""
@@ -155,6 +166,8 @@ def mirrored_bodies_mesh(
         raise ValueError(f"the mirrored bodies are disks (dim=2) or balls (dim=3), got {dim!r}")
     if not np.isfinite(gap) or gap < 0:
         raise ValueError(f"the gap between the bodies must be >= 0, got gap={gap!r}")
+    if not np.isfinite(offset) or abs(offset) >= 40.0:
+        raise ValueError(f"the offset must be less than a diameter (40), got offset={offset!r}")
     radius = 20.0
     if dim == 3:
         body, contact, free = BALL_VOLUME, BALL_CONTACT, BALL_FREE
@@ -173,7 +186,7 @@ def mirrored_bodies_mesh(
             (dim - 1, contact): (UPPER_CONTACT, LOWER_CONTACT),
             (dim - 1, free): (UPPER_FREE, LOWER_FREE),
         }
-        _mirror_into_new_model(gmsh, dim, dim, groups)
+        _mirror_into_new_model(gmsh, dim, dim, groups, shift=offset)
 
     return distribute(build, comm, dim, [UPPER_CONTACT, LOWER_CONTACT])
 
@@ -236,6 +249,7 @@ def two_bodies_problem(
     comm=MPI.COMM_WORLD,
     gamma0_scaling: str = "absolute",
     mass: str = "consistent",
+    offset: float = 0.0,
     follow: bool = True,
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
@@ -243,13 +257,14 @@ def two_bodies_problem(
     each other along the last axis at speeds v0, without gravity. ``along_axis``: the
     surfaces are paired along that axis (then the pair is exactly one body on a rigid
     plane with gamma0 / 2, docs/method.md section 11); else with closest points.
-    ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`; ``follow``: that of
-    :meth:`~nitsche_dolfinx.model.ContactProblem.add_contact_pair`.
+    ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`. ``offset``: the
+    bodies' centres that far apart along x (an off-centre hit; 0: head-on). ``follow``:
+    that of :meth:`~nitsche_dolfinx.model.ContactProblem.add_contact_pair`.
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
     """
-    mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm)
+    mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm, offset)
     problem = ContactProblem(
         mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta,
         gamma0_scaling=gamma0_scaling, mass=mass,

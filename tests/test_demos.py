@@ -16,7 +16,7 @@ from runs import MPIRUN, assert_same_history, assert_xdmf_readable, run
 
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
-from nitsche_dolfinx.history import HISTORY_COLUMNS
+from nitsche_dolfinx.history import HISTORY_COLUMNS, body_columns
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))
@@ -194,10 +194,15 @@ def test_two_disks_demo_contract(tmp_path):
     assert result.returncode == 0, result.stderr
     with open(out / "history.csv") as f:
         header = f.readline().strip().split(",")
-    assert header == [
+    assert header[:13] == [
         "t", "energy", "energy_theta", "kinetic", "elastic", "potential", "contact_force",
         "contact_area", "penetration_max", "newton_iterations", "step_seconds",
         "momentum_x", "momentum_y",
+    ]  # fmt: skip
+    # then the angular momenta and each disk's columns (docs/method.md section 6)
+    assert header[13:] == [
+        "angular_momentum_z", "angular_momentum_reference_z",
+        *body_columns(1, 2), *body_columns(2, 2),
     ]  # fmt: skip
     assert "580 DOFs" in result.stdout
     line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
@@ -219,10 +224,20 @@ def test_two_disks_demo_under_mpirun_matches_serial(tmp_path):
         assert result.returncode == 0, result.stderr
     serial, parallel = (read_history(str(out / "history.csv")) for out in outs)
     assert serial["contact_force"].max() > 0
-    momentum = ["momentum_x", "momentum_y"]  # zero: compared on one disk's, rho |disk| v0
-    for name in momentum:
-        assert np.abs(parallel[name] - serial[name]).max() < 1e-8 * np.pi * 20.0**2
-    others = [name for name in serial.columns if name not in momentum]
+    # columns zero by symmetry, compared on their physical size: the momenta on one disk's,
+    # rho |disk| v0; the angular momenta on its moment about the origin, rho |disk| v0 R; the
+    # centres of mass on the radius R
+    sizes = {"momentum": np.pi * 20.0**2, "angular_momentum": np.pi * 20.0**3}
+    sizes["centre_of_mass"] = 20.0
+    scales = {
+        name: size
+        for name in serial.columns
+        for quantity, size in sizes.items()
+        if name.startswith(quantity)
+    }
+    for name, scale in scales.items():
+        assert np.abs(parallel[name] - serial[name]).max() < 1e-8 * scale, name
+    others = [name for name in serial.columns if name not in scales]
     assert_same_history(*({n: h[n] for n in others} for h in (parallel, serial)), 1e-8)
     assert assert_xdmf_readable(str(outs[1] / "solution.xdmf"), 3.0)[-1] == pytest.approx(3.0)
 
