@@ -53,6 +53,7 @@ _HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer
 _XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends the projection
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
 _ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
+_NORMAL_BLEND = 1e-6  # closer than this share of a facet's size, its own normal counts
 
 
 def _basix_cell(mesh):
@@ -63,6 +64,27 @@ def _lagrange(cell_type, degree: int):
     return basix.create_element(
         basix.ElementFamily.P, cell_type, degree, basix.LagrangeVariant.equispaced
     )
+
+
+def _solve_small(matrix: np.ndarray, fallback: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """matrix^-1 right for a stack of 1x1 or 2x2 systems, the ``fallback`` matrices where
+    ``matrix`` is not positive definite; a singular one (a line along a facet) gets a
+    little of its own scale on its diagonal."""
+
+    def definite(m):
+        if m.shape[1] == 1:
+            return m[:, 0, 0] > 0
+        return (m[:, 0, 0] > 0) & (m[:, 0, 0] * m[:, 1, 1] - m[:, 0, 1] * m[:, 1, 0] > 0)
+
+    chosen = np.where(definite(matrix)[:, None, None], matrix, fallback)
+    trace = np.trace(chosen, axis1=1, axis2=2)
+    chosen = chosen + (1e-12 * np.abs(trace) + 1e-300)[:, None, None] * np.eye(matrix.shape[1])
+    if matrix.shape[1] == 1:
+        return right / chosen[:, 0]
+    a, b, c, d = chosen[:, 0, 0], chosen[:, 0, 1], chosen[:, 1, 0], chosen[:, 1, 1]
+    determinant = a * d - b * c
+    return np.stack([d * right[:, 0] - b * right[:, 1], a * right[:, 1] - c * right[:, 0]],
+                    axis=1) / determinant[:, None]  # fmt: skip
 
 
 def _into_facet(xi: np.ndarray) -> np.ndarray:
@@ -172,27 +194,31 @@ class _MasterSurface:
         tangent = np.einsum("ndj,njf->ndf", jacobian, edges)
         if not second:
             return x, tangent
-        return x, tangent, np.einsum("ndij,nif,njg->ndfg", hessian, edges, edges)
+        half = np.einsum("ndij,nif->ndfj", hessian, edges)
+        return x, tangent, np.einsum("ndfj,njg->ndfg", half, edges)
 
     def reference_point(self, facet: np.ndarray, xi: np.ndarray) -> np.ndarray:
         """The reference-cell coordinates X(xi) of the points."""
         return self.origins[facet] + np.einsum("nij,nj->ni", self.edges[facet], xi)
 
-    def _candidates(self, points: np.ndarray, direction: np.ndarray | None) -> np.ndarray:
+    def _candidates(
+        self, points: np.ndarray, direction: np.ndarray | None, exhaustive: bool = False
+    ) -> np.ndarray:
         """For each point, the facets with the nearest centroids (measured across the line
-        along ``direction``, if given): a k-d tree search, n log n."""
-        count = min(_CANDIDATES, len(self.cells))
+        along ``direction``, if given): a k-d tree search, n log n; ``exhaustive``: every
+        facet (the reference the search is checked by)."""
+        count = len(self.cells) if exhaustive else min(_CANDIDATES, len(self.cells))
         centroids = self.centroids
         if direction is not None:  # coordinates across the line
             basis = np.linalg.svd(np.eye(self.gdim) - np.outer(direction, direction))[0]
             basis = basis[:, : self.gdim - 1]
             centroids, points = centroids @ basis, points @ basis
-        if not centroids.shape[1]:  # (1D along the line: every facet is as near)
+        if exhaustive or not centroids.shape[1]:  # (1D along the line: all as near)
             return np.broadcast_to(np.arange(count), (len(points), count))
         _, nearest = cKDTree(centroids).query(points, k=count)
         return np.asarray(nearest).reshape(len(points), count)
 
-    def closest(self, points: np.ndarray, direction: np.ndarray | None = None):
+    def closest(self, points: np.ndarray, direction: np.ndarray | None = None, exhaustive=False):
         """For each point: the distance to the nearest facet of this rank (inf if none),
         that facet's index, its facet coordinates xi there, and the outer normal.
 
@@ -210,7 +236,7 @@ class _MasterSurface:
         across = np.eye(self.gdim)
         if direction is not None:  # only the offset across the line counts
             across = across - np.outer(direction, direction)
-        candidates = self._candidates(points, direction)
+        candidates = self._candidates(points, direction, exhaustive)
         tried = candidates.ravel()
         targets = np.repeat(points, candidates.shape[1], axis=0)
         xi_tried, x = self._project(tried, targets, across)
@@ -224,44 +250,64 @@ class _MasterSurface:
         if direction is not None:
             normal[:] = -direction
         else:
-            normal = self._outer_normal(facet, xi, x[chosen])
+            normal = self._closest_normal(facet, xi, x[chosen], points)
         return distance, facet, xi, normal
+
+    def _closest_normal(self, facet, xi, partner: np.ndarray, points: np.ndarray):
+        """The outer normal of Gamma_2 seen from each point: along the line from the point
+        to its closest point (outward: away from the point outside the body, towards it
+        inside), which is the facet's normal inside a facet and turns continuously around
+        an edge or a vertex where facets meet, where the facet's own normal jumps (the
+        facet chosen there is the first of equally near ones, which round-off decides).
+        Within round-off of the surface, where that line has no direction, the facet's
+        normal, blended in over a millionth of the facet's size."""
+        own = self._outer_normal(facet, xi, partner)
+        line = partner - points
+        length = np.linalg.norm(line, axis=1)
+        outside = np.einsum("nd,nd->n", line, own) <= 0
+        along = np.where(outside, -1.0, 1.0)[:, None] * line / np.maximum(length, 1e-300)[:, None]
+        weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0)[:, None]
+        normal = weight * along + (1.0 - weight) * own
+        return normal / np.linalg.norm(normal, axis=1, keepdims=True)
 
     def _project(self, facet: np.ndarray, targets: np.ndarray, across: np.ndarray):
         """The points of the facets closest to the targets, measured by ``across`` (the
         identity, or the projection across a line): Newton's method on the squared
         distance in xi, with its curvature term (Gauss-Newton where the Hessian is not
         positive definite) and halved steps where a step does not bring the point nearer,
-        kept in the facet. Returns xi and the points."""
+        kept in the facet; each point until its step is below round-off. Returns xi and
+        the points."""
         fdim = self.edges.shape[2]
         xi = np.full((len(facet), fdim), 1.0 / (fdim + 1))
         x, tangent, curvature = self.points(facet, xi, second=True)
-        if not fdim:
-            return xi, x
+        active = np.arange(len(facet)) if fdim else np.zeros(0, dtype=np.int64)
         for _ in range(_NEWTON_STEPS):
-            offset = (x - targets) @ across  # (``across`` is symmetric)
-            gradient = np.einsum("ndf,nd->nf", tangent, offset)
-            gauss_newton = np.einsum("ndf,de,neg->nfg", tangent, across, tangent)
-            hessian = gauss_newton + np.einsum("nd,ndfg->nfg", offset, curvature)
-            convex = np.all(np.linalg.eigvalsh(hessian) > 0, axis=1)
-            hessian[~convex] = gauss_newton[~convex]
-            step = -np.einsum("nfg,ng->nf", np.linalg.pinv(hessian), gradient)
-            distance = np.einsum("nd,nd->n", offset, offset)
-            scale, moved = np.ones(len(facet)), np.zeros(len(facet), dtype=bool)
-            for _ in range(_HALVINGS):  # halve the steps that do not bring the point nearer
-                trial = _into_facet(xi + scale[:, None] * step)
-                new = self.points(facet, trial, second=True)
-                new_offset = (new[0] - targets) @ across
-                nearer = np.einsum("nd,nd->n", new_offset, new_offset) <= distance
-                take = nearer & ~moved
-                xi[take] = trial[take]
-                x[take], tangent[take], curvature[take] = (part[take] for part in new)
-                moved |= nearer
-                if moved.all():
-                    break
-                scale[~moved] /= 2
-            if np.max(np.abs(scale[:, None] * step), initial=0.0) < _XI_TOLERANCE:
+            if not active.size:
                 break
+            offset = (x[active] - targets[active]) @ across  # (``across`` is symmetric)
+            t = tangent[active]
+            gradient = np.einsum("ndf,nd->nf", t, offset)
+            gauss_newton = np.einsum("ndf,dg->nfg", t, across @ np.eye(self.gdim)) @ t
+            hessian = gauss_newton + np.einsum("nd,ndfg->nfg", offset, curvature[active])
+            step = -_solve_small(hessian, gauss_newton, gradient)
+            before = xi[active]
+            distance = np.einsum("nd,nd->n", offset, offset)
+            trying, scale = active, np.ones(len(active))
+            position = np.arange(len(active))  # of the tried points among the active ones
+            for _ in range(_HALVINGS):  # halve the steps that do not bring the point nearer
+                trial = _into_facet(xi[trying] + scale[position, None] * step[position])
+                new = self.points(facet[trying], trial, second=True)
+                new_offset = (new[0] - targets[trying]) @ across
+                nearer = np.einsum("nd,nd->n", new_offset, new_offset) <= distance[position]
+                taken = trying[nearer]
+                xi[taken] = trial[nearer]
+                x[taken], tangent[taken], curvature[taken] = (part[nearer] for part in new)
+                trying, position = trying[~nearer], position[~nearer]
+                if not trying.size:
+                    break
+                scale[position] /= 2
+            moved = np.abs(xi[active] - before).max(axis=1)  # (a point kept at an edge: 0)
+            active = active[moved >= _XI_TOLERANCE]
         return xi, x
 
     def _outer_normal(self, facet: np.ndarray, xi: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -343,9 +389,10 @@ class Pairing:
         self.generation = 0
         self.pair()
 
-    def pair(self, u: fem.Function | None = None) -> None:
+    def pair(self, u: fem.Function | None = None, exhaustive: bool = False) -> None:
         """Pair the surfaces in the configuration displaced by ``u`` (None: the reference
-        one); collective."""
+        one), each slave node with every facet of Gamma_2 if ``exhaustive`` (the reference
+        of the search); collective."""
         V, comm = self.V, self.V.mesh.comm
         gdim, bs = V.mesh.geometry.dim, V.dofmap.index_map_bs
         index_map = V.dofmap.index_map
@@ -362,7 +409,7 @@ class Pairing:
         every_position = np.vstack(comm.allgather(self._positions)).reshape(-1, gdim)
         master = self._master
         master.move(moved)
-        distance, facet, xi, outer = master.closest(every_point, self.direction)
+        distance, facet, xi, outer = master.closest(every_point, self.direction, exhaustive)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
         nearest = np.empty_like(distance)
         comm.Allreduce(distance, nearest, op=MPI.MIN)
