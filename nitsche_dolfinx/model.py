@@ -304,15 +304,19 @@ class ContactProblem:
 
     def add_contact_pair(
         self, tag_a: int, tag_b: int, variant: str = "unbiased", direction=None,
-        follow: bool = True,
+        follow: bool | None = None,
     ) -> list:  # fmt: skip
         """Add contact between the facets ``tag_a`` and ``tag_b`` of two bodies (or of two
         parts of one body) of the mesh, by Nitsche's method (docs/method.md section 11).
 
         Each node of a slave surface is paired with its closest point on the other
-        surface, in the reference configuration and, with ``follow`` (the default), again
-        in the configuration of the last converged step whenever the surfaces have slid
-        along each other by a tenth of a facet (:data:`~nitsche_dolfinx.pairs.REPAIR_SLIP`).
+        surface, in the reference configuration and, with ``follow``, again in the
+        configuration of the last converged step whenever the surfaces have slid along
+        each other by 3% of a facet (:data:`~nitsche_dolfinx.pairs.REPAIR_SLIP`). By
+        default closest points are followed and a pairing along a ``direction`` is not:
+        paired again along a line, the gap is not a distance, and each pairing changes
+        E_Theta by the force times the slope of the surface times the slip
+        (docs/method.md section 11).
         ``variant="unbiased"`` (the default): each surface is slave in turn with weight
         1/2, and the stresses of both bodies enter; ``"biased"``: ``tag_a`` is the slave,
         and only its stress enters.
@@ -336,6 +340,7 @@ class ContactProblem:
             length = float(np.linalg.norm(unit))
             require(length > 0, "direction", unit.tolist(), "the direction must not be zero")
             unit = unit / length
+        follow = unit is None if follow is None else bool(follow)
         halves = pair_halves(self, tag_a, tag_b, variant, unit, follow)
         for half in halves:
             self.contacts.append(half)

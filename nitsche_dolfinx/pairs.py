@@ -43,10 +43,10 @@ __all__ = ["CONTACT_PAIR_VARIANTS", "REPAIR_SLIP", "PairContact", "Pairing", "pa
 #: surface is the slave, and only its stress enters.
 CONTACT_PAIR_VARIANTS = ("unbiased", "biased")
 
-#: A pairing is made again when a slave node has slid along the master surface, since the
-#: last pairing, by more than this fraction of the size of the facet it is paired with
-#: (docs/method.md section 11).
-REPAIR_SLIP = 0.1
+#: A pairing is made again when a slave node near the master surface has slid along it,
+#: since the last pairing, by more than this fraction of the size of the facet it is
+#: paired with (docs/method.md section 11).
+REPAIR_SLIP = 0.03
 
 _NEWTON_STEPS = 12  # Newton steps of a closest-point projection onto a curved facet
 _HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer

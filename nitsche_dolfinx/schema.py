@@ -184,8 +184,9 @@ SCHEMA: dict[str, Table] = {
                            ("unbiased", "biased")),
             "direction": Key("vector", None, "pair along it, from the first to the second",
                              shown_default="closest points"),
-            "follow": Key("boolean", True, "pair again in the last step's configuration "
-                          "when the surfaces have slid (false: in the reference one only)"),
+            "follow": Key("boolean", None, "pair again in the last step's configuration "
+                          "when the surfaces have slid (false: in the reference one only)",
+                          shown_default="true with closest points, false along a direction"),
         },
         array=True,
     ),

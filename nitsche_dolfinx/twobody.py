@@ -250,7 +250,7 @@ def two_bodies_problem(
     gamma0_scaling: str = "absolute",
     mass: str = "consistent",
     offset: float = 0.0,
-    follow: bool = True,
+    follow: bool | None = None,
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
