@@ -49,6 +49,7 @@ __all__ = [
     "ball_on_slab_problem",
     "block_on_slab_mesh",
     "block_on_slab_problem",
+    "settled_displacement",
     "mirrored_bodies_mesh",
     "add_body_velocity_probes",
     "body_velocities",
@@ -429,19 +430,25 @@ def block_on_slab_mesh(
     height: float = 1.0,
     nx: int = 8,
     ny: int = 4,
-    slab: tuple[float, float, float] = (-1.5, 6.0, 0.5),
-    slab_cells: tuple[int, int] = (24, 2),
+    slab_start: float = -1.5,
+    slab_length: float = 6.0,
+    thickness: float = 0.5,
+    slab_nx: int = 24,
+    slab_ny: int = 2,
     gap: float = 1e-6,
     comm=MPI.COMM_WORLD,
 ):
-    """A block (-width/2, width/2) x (gap, gap + height) above a slab (x0, x0 + length) x
-    (-thickness, 0), ``slab`` = (x0, length, thickness), each a structured grid of
-    triangles (``nx`` x ``ny`` and ``slab_cells``). Cells :data:`BLOCK`, :data:`SLAB`;
-    facets :data:`BLOCK_BOTTOM`, :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`. Returns
-    ``(mesh, cell_tags, facet_tags)``."""
-    x0, length, thickness = slab
-    if not (width > 0 and height > 0 and length > 0 and thickness > 0 and gap >= 0):
-        raise ValueError(f"block {width!r} x {height!r}, slab {slab!r} or gap {gap!r}")
+    """A block (-width/2, width/2) x (gap, gap + height) above a slab (slab_start,
+    slab_start + slab_length) x (-thickness, 0), each a structured grid of triangles
+    (``nx`` x ``ny`` x 2 and ``slab_nx`` x ``slab_ny`` x 2). Cells :data:`BLOCK`,
+    :data:`SLAB`; facets :data:`BLOCK_BOTTOM`, :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`.
+    Returns ``(mesh, cell_tags, facet_tags)``."""
+    sizes = (width, height, slab_length, thickness)
+    if not (all(size > 0 for size in sizes) and gap >= 0):
+        raise ValueError(f"block {width!r} x {height!r}, slab {slab_length!r} x "
+                         f"{thickness!r} or gap {gap!r} out of range")  # fmt: skip
+    if min(nx, ny, slab_nx, slab_ny) < 1:
+        raise ValueError(f"each body needs a cell each way, got {nx, ny, slab_nx, slab_ny}")
 
     def build():
         import gmsh  # optional dependency: the rank that builds the model alone
@@ -450,7 +457,7 @@ def block_on_slab_mesh(
         geo = gmsh.model.geo
         block, bottom, _ = _add_rectangle(geo, (-width / 2, gap), (width, height), (nx, ny))
         base, base_bottom, top = _add_rectangle(
-            geo, (x0, -thickness), (length, thickness), slab_cells
+            geo, (slab_start, -thickness), (slab_length, thickness), (slab_nx, slab_ny)
         )
         groups = [(2, block, BLOCK), (2, base, SLAB), (1, bottom, BLOCK_BOTTOM),
                   (1, top, SLAB_TOP), (1, base_bottom, SLAB_BOTTOM)]  # fmt: skip
@@ -459,6 +466,19 @@ def block_on_slab_mesh(
         gmsh.model.mesh.generate(2)
 
     return distribute(build, comm, 2, [BLOCK_BOTTOM, SLAB_TOP])
+
+
+def settled_displacement(gravity_over_E: float, height: float, thickness: float, gap: float):
+    """The initial displacement of :func:`block_on_slab_problem` in the expression language
+    (docs/method.md section 13): each body in the equilibrium of its own weight (nu = 0),
+    the slab held at y = -thickness, the block resting on its sagging top,
+    u_y = s (y^2 - H_s^2) / 2 in the slab and -s (H y' - y'^2 / 2) - s H_s^2 / 2 in the
+    block (y' = y - gap its height), s = rho g / E."""
+    s, below = repr(gravity_over_E), repr(gravity_over_E * thickness**2 / 2)
+    up = f"(y - {gap!r})"
+    block = f"-{s} * ({height!r} * {up} - {up}^2 / 2) - {below}"
+    slab = f"{s} * (y^2 - {thickness**2!r}) / 2"
+    return [0.0, f"{block} if y > {gap / 2!r} else {slab}"]
 
 
 def block_on_slab_problem(
@@ -473,39 +493,33 @@ def block_on_slab_problem(
     variant: str = "biased",
     follow: bool = True,
     comm=MPI.COMM_WORLD,
-    height: float = 1.0,
-    slab: tuple[float, float, float] = (-1.5, 6.0, 0.5),
-    gap: float = 1e-6,
-    **cells,
+    gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
+    **mesh,
 ):
     """The block of :func:`~nitsche_dolfinx.cases.block_problem` (nu = 0, plane strain)
     thrown at v0 along a slab of the same material held at its bottom, with Coulomb
     friction ``friction`` between the block's bottom (the slave with ``"biased"``) and
     the slab's top: a contact pair, closest points, paired again as the block slides
-    with ``follow``; gravity g. Each body starts in the equilibrium of its own weight,
-    the block ``gap`` above the slab, so that no force acts between them at t = 0: a
-    rigid block stops after v0^2 / (2 mu_f g). ``height``, ``slab``, ``gap`` and
-    ``cells`` (``width``, ``nx``, ``ny``, ``slab_cells``): those of
-    :func:`block_on_slab_mesh`. ``gamma0``: default 1e-3 / E. Returns
-    ``(problem, cell_tags)``."""
-    domain, cell_tags, facets = block_on_slab_mesh(
-        height=height, slab=slab, gap=gap, comm=comm, **cells
-    )
+    with ``follow``; gravity g. Each body starts in the equilibrium of its own weight
+    (:func:`settled_displacement`), the block ``gap`` above the slab, so that no force
+    acts between them at t = 0: a rigid block stops after v0^2 / (2 mu_f g).
+    ``mesh``: the keys of :func:`block_on_slab_mesh`. ``gamma0``: default 1e-3 / E (or
+    1e-3 with ``gamma0_scaling="E"``). Returns ``(problem, cell_tags)``."""
+    shape = {**dict(height=1.0, thickness=0.5, gap=1e-6), **mesh}
+    domain, cell_tags, facets = block_on_slab_mesh(comm=comm, **shape)
+    if gamma0 is None:
+        gamma0 = 1e-3 / E if gamma0_scaling == "absolute" else 1e-3
     problem = ContactProblem(
-        domain, facets, Material(E=E, nu=0.0, rho=rho), degree,
-        1e-3 / E if gamma0 is None else gamma0, nitsche_theta, friction,
+        domain, facets, Material(E=E, nu=0.0, rho=rho), degree, gamma0, nitsche_theta,
+        friction, gamma0_scaling=gamma0_scaling, mass=mass,
     )  # fmt: skip
     problem.add_contact_pair(BLOCK_BOTTOM, SLAB_TOP, variant, None, follow)
     problem.add_dirichlet(SLAB_BOTTOM, [0.0, 0.0])
     problem.add_body_force([0.0, -rho * gravity])
-    sag, thickness = rho * gravity / E, slab[2]
-
-    def settled(x):  # u_y of each body in the equilibrium of its own weight (nu = 0)
-        s = x[1] - gap  # the height in the block, which rests on the sagging slab
-        block = -sag * (height * s - s**2 / 2) - sag * thickness**2 / 2
-        base = sag * (x[1] ** 2 - thickness**2) / 2
-        return np.stack([0.0 * x[0], np.where(x[1] > gap / 2, block, base)])
-
+    displacement = settled_displacement(
+        rho * gravity / E, shape["height"], shape["thickness"], shape["gap"]
+    )
     velocity = body_velocities(problem, cell_tags, {BLOCK: [v0, 0.0], SLAB: [0.0, 0.0]})
-    problem.set_initial_conditions(displacement=settled, velocity=velocity)
+    problem.set_initial_conditions(displacement=displacement, velocity=velocity)
     return problem, cell_tags
