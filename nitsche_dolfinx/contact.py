@@ -211,9 +211,13 @@ class NitscheContact:
         """sigma_t(u) = sigma(u) n - sigma_n(u) n_c."""
         return sigma_t(self.stress(u), self.n, self.n_c)
 
+    def slip_velocity(self, velocity):
+        """u'_t, the tangential velocity (relative to the obstacle, which stands still)."""
+        return self.tangential(velocity)
+
     def tangential_projection(self, u, velocity):
         """P_t(u) = u'_t - gamma_h sigma_t(u)."""
-        return self.tangential(velocity) - self.gamma_h * self.sigma_t(u)
+        return self.slip_velocity(velocity) - self.gamma_h * self.sigma_t(u)
 
     def tangential_test_projection(self, v):
         """v_t - Theta gamma_h sigma_t(v)."""
@@ -277,6 +281,11 @@ class NitscheContact:
         (``reference``: the guarded law of :meth:`friction_traction`)."""
         traction = self.friction_traction(u, velocity, normal_force, reference)
         return -ufl.dot(traction, self.tangential_test_projection(v)) * self.ds
+
+    def friction_work(self, u, velocity, normal_force, v):
+        """The friction term tested with a displacement ``v`` (a Function: the step's
+        increment), the work D^n of docs/method.md section 4."""
+        return self.friction_term(u, velocity, normal_force, v)
 
     def affine_terms(self, u, v):
         """The terms of :meth:`residual` that are affine in u whatever the contact: the
@@ -372,7 +381,7 @@ class PenaltyContact(NitscheContact):
 
     def tangential_projection(self, u, velocity):
         """u'_t: penalised friction, ``[u'_t]_{mu_f [u_n - g]_+} / eps``."""
-        return self.tangential(velocity)
+        return self.slip_velocity(velocity)
 
     def tangential_test_projection(self, v):
         """v_t."""

@@ -91,13 +91,16 @@ class GuardedFriction:
 
 #: Friction quantities of :func:`friction_terms`.
 FRICTION_QUANTITIES = {
-    # the friction term of the equation: tested with the step's increment, its work
-    "work": lambda c, u, velocity, force, v: c.friction_term(u, velocity, force, v),
+    # the friction term of the equation: tested with the step's increment, its work (a
+    # pair's: on the increment of both bodies, docs/method.md section 11)
+    "work": lambda c, u, velocity, force, v: c.friction_work(u, velocity, force, v),
     # int lambda_t . v and int u'_t . v, for output on Gamma_C
     "traction": lambda c, u, velocity, force, v: (
         ufl.inner(c.friction_traction(u, velocity, force), v) * c.ds
     ),
-    "slip_velocity": lambda c, u, velocity, force, v: ufl.inner(c.tangential(velocity), v) * c.ds,
+    "slip_velocity": lambda c, u, velocity, force, v: (
+        ufl.inner(c.slip_velocity(velocity), v) * c.ds
+    ),
 }
 
 

@@ -35,7 +35,9 @@ class FrictionOutput:
     def __init__(self, stepper, dt):
         sim, problem = stepper, stepper.problem
         self.comm = problem.mesh.comm
+        self.problem = problem
         self.increment = fem.Function(problem.V)
+        problem.track_partners(self.increment)  # a pair's work is on T du too
         terms = friction_terms(problem, "work")
         work = sim.scheme.residual(terms, sim.w, sim.u, sim.v, sim.a, dt, self.increment)
         self._work = fem.form(work)
@@ -61,6 +63,7 @@ class FrictionOutput:
     def work(self, increment: np.ndarray) -> float:
         """D^n for the step from the current state with the increment (dof array)."""
         self.increment.x.array[:] = increment
+        self.problem.update_partners()
         return assemble_global(self._work, self.comm)
 
     def update_fields(self) -> None:
@@ -89,7 +92,12 @@ class GuardedNewton:
         w = state[0]
         self.w = w
         self.reference = fem.Function(w.function_space, name="reference")
+        # a pair's law sees the partner of the unknown: at the reference, its partner
+        problem.track_partners(self.reference)
+        self._pairs = problem.pairs
         at_reference = {w: self.reference}
+        for pair in self._pairs:
+            at_reference[pair.partners[w]] = pair.partners[self.reference]
 
         def reference(expr):
             return ufl.replace(expr, at_reference)
@@ -105,13 +113,13 @@ class GuardedNewton:
     def coulomb_residual(self, solver: SNESSolver, new_coefficients: bool = True) -> float:
         """The norm of Coulomb's residual at the current ``w`` (the reference is moved
         to ``w``); ``solver`` is the SNES of :attr:`model`'s residual."""
-        self.reference.x.array[:] = self.w.x.array
+        self._set_reference(self.w.x.array)
         return solver.residual_norm(new_coefficients)
 
     def coulomb_scale(self, solver: SNESSolver) -> float:
         """The scale of Coulomb's equation at the current ``w`` (the reference is moved
         to ``w``): :meth:`~nitsche_dolfinx.solver.SNESSolver.equation_scale`."""
-        self.reference.x.array[:] = self.w.x.array
+        self._set_reference(self.w.x.array)
         return solver.equation_scale()
 
     def solve(
@@ -121,14 +129,20 @@ class GuardedNewton:
         of the unknown), moving the reference to each guarded solution until the guarded
         law is Coulomb's (at most ``updates`` times). Every solve has the absolute
         residual tolerance ``tolerance``. Returns the Newton iterations of all the solves."""
-        self.reference.x.array[:] = first_reference
+        self._set_reference(first_reference)
         spent = 0
         for _ in range(updates + 1):
             spent += self._solve_once(solver, tolerance)
             if assemble_global(self.activity, self.comm) == 0.0:
                 return spent
-            self.reference.x.array[:] = self.w.x.array
+            self._set_reference(self.w.x.array)
         raise SolverError(PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT, spent, float("nan"))
+
+    def _set_reference(self, values: np.ndarray) -> None:
+        """Move the reference to ``values`` (an array of the unknown), and its partners."""
+        self.reference.x.array[:] = values
+        for pair in self._pairs:
+            pair.update([self.reference])
 
     def _solve_once(self, solver: SNESSolver, tolerance: float) -> int:
         """One solve with a fixed reference: full Newton steps and, should they cycle

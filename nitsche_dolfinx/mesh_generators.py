@@ -19,7 +19,7 @@ from .keys import Key, is_number
 from .meshes import MAX_CELLS, bar_mesh, block_mesh
 from .parameters import ParameterError
 from .shapes import ball_mesh, disk_mesh
-from .twobody import ball_on_slab_mesh, mirrored_bodies_mesh, two_bars_mesh
+from .twobody import ball_on_slab_mesh, block_on_slab_mesh, mirrored_bodies_mesh, two_bars_mesh
 
 __all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "check_generator", "generate_mesh"]
 
@@ -76,6 +76,10 @@ def _mirrored_bodies(comm, dim, mesh_size, order, gap, offset):
 
 def _ball_on_slab(comm, dim, mesh_size, radius, width, thickness, gap):
     return ball_on_slab_mesh(dim, mesh_size, radius, width, thickness, gap, comm)
+
+
+def _block_on_slab(comm, **keys):
+    return block_on_slab_mesh(**keys, comm=comm)
 
 
 #: name -> the generator. The keys are those of the library's function, with its defaults.
@@ -144,6 +148,27 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         None,
         "cells 1 ball, 2 slab; facets 1 ball's lower half, 2 slab top, 3 slab bottom",
     ),
+    "block_on_slab": MeshGenerator(
+        "a block (-width/2, width/2) x (gap, gap + height) above a slab (slab_start, "
+        "slab_start + slab_length) x (-thickness, 0), structured triangles "
+        "(twobody.block_on_slab_mesh)",
+        {
+            "width": 2.0,
+            "height": 1.0,
+            "nx": 8,
+            "ny": 4,
+            "slab_start": -1.5,
+            "slab_length": 6.0,
+            "thickness": 0.5,
+            "slab_nx": 24,
+            "slab_ny": 2,
+            "gap": 1e-6,
+        },
+        _block_on_slab,
+        2,
+        "cells 1 block, 2 slab; facets 1 block bottom, 2 slab top, 3 slab bottom",
+        lambda nx, ny, slab_nx, slab_ny, **sizes: 2 * (nx * ny + slab_nx * slab_ny),
+    ),
 }
 
 
@@ -160,6 +185,10 @@ def _key(kind: str, meaning: str, check: Callable, requirement: str) -> Key:
 GENERATOR_KEYS: dict[str, Key] = {
     "nx": _key("integer", "cells along x (two_bars: per bar)", lambda n: n >= 1, "at least 1"),
     "ny": _key("integer", "cells along y", lambda n: n >= 1, "at least 1"),
+    "slab_nx": _key("integer", "cells of the slab along x", lambda n: n >= 1, "at least 1"),
+    "slab_ny": _key("integer", "cells of the slab along y", lambda n: n >= 1, "at least 1"),
+    "slab_start": _key("number", "x of the slab's left end", math.isfinite, "finite"),
+    "slab_length": _key("number", "length of the slab", _positive, "positive"),
     "length": _key("number", "length of the bar", _positive, "positive"),
     "width": _key("number", "width of the block or the slab", _positive, "positive"),
     "height": _key("number", "height of the block", _positive, "positive"),

@@ -323,16 +323,15 @@ class ContactProblem:
         ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
         instead of with the closest point, with the contact normal n_c = direction: for
         a head-on collision, where it makes a pair of mirror-image bodies exactly one
-        body on a rigid plane (docs/method.md section 11). Frictionless, Nitsche only.
+        body on a rigid plane (docs/method.md section 11). Nitsche only; with the
+        problem's ``friction``, Coulomb friction on the relative slip.
         Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
         require_choice(variant, CONTACT_PAIR_VARIANTS, "variant", "contact pair variant")
         require(
-            self.method == "nitsche" and self.friction is None,
-            "method",
-            self.method if self.friction is None else "friction",
-            "contact between bodies is frictionless Nitsche contact so far",
-        )
+            self.method == "nitsche", "method", self.method,
+            "contact between bodies is Nitsche contact (not penalty nor the mixed method)",
+        )  # fmt: skip
         require(tag_a != tag_b, "tag_b", tag_b, f"a pair needs two surfaces, got {tag_a} twice")
         unit = None
         if direction is not None:

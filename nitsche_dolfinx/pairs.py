@@ -21,6 +21,8 @@ of the scheme's unknown,
     J = dF/dw + (dF/dw~) T + T^T (dG/dw) + T^T (dG/dw~) T.
 
 The unbiased variant is two biased pairs, each surface slave in turn, each with weight 1/2.
+Coulomb friction acts on the relative slip velocity (u' - T u')_t, its partner part in G
+(docs/method.md section 11, "Friction between bodies").
 """
 
 from __future__ import annotations
@@ -518,10 +520,11 @@ class PairContact(NitscheContact):
     """One biased half of a contact pair: Gamma_1 (``ds``) against its partner surface.
 
     The law is :class:`~nitsche_dolfinx.contact.NitscheContact`'s with the relative
-    normal displacement (u - T u) . n_c, every term multiplied by ``weight`` (1/2 for
-    each half of the unbiased variant). The part tested by the partner's displacement,
-    :meth:`partner_term`, is assembled apart and added through T^T
-    (:class:`PairCoupling`).
+    normal displacement (u - T u) . n_c and, with friction, the relative slip velocity
+    (u' - T u')_t, every term multiplied by ``weight`` (1/2 for each half of the
+    unbiased variant). The part tested by the partner's displacement,
+    :meth:`partner_force_terms`, is assembled apart and added through T^T
+    (:class:`~nitsche_dolfinx.pair_coupling.PairCoupling`).
 
     Args:
         pairing: The :class:`Pairing` of Gamma_1 with Gamma_2.
@@ -529,13 +532,15 @@ class PairContact(NitscheContact):
         follow: Pair the surfaces again in the configuration of the last converged step
             when they have slid (:meth:`Pairing.slid`); False: in the reference
             configuration only.
+        friction: The Coulomb coefficient mu_f (a ``fem.Constant``), or None.
         The others are those of :class:`~nitsche_dolfinx.contact.NitscheContact`.
     """
 
     def __init__(
-        self, pairing, ds, stress, gamma_h, nitsche_theta, weight: float, follow: bool = True
-    ):
-        super().__init__(_PartnerSurface(pairing), ds, stress, gamma_h, nitsche_theta)
+        self, pairing, ds, stress, gamma_h, nitsche_theta, weight: float, follow: bool = True,
+        friction=None,
+    ):  # fmt: skip
+        super().__init__(_PartnerSurface(pairing), ds, stress, gamma_h, nitsche_theta, friction)
         self.pairing = pairing
         self.weight = float(weight)
         self.follow = bool(follow)
@@ -589,6 +594,41 @@ class PairContact(NitscheContact):
         """-weight int (1/gamma_h) force (T v) . n_c, with ``v`` standing for T v."""
         return -self.weight * force / self.gamma_h * ufl.dot(v, self.n_c) * self.ds
 
+    def partner_force_terms(self, u, velocity, force, v, reference=None):
+        """The terms of :meth:`force_terms` tested by the partner (``v`` standing for T v):
+        :meth:`partner_term` and, with friction, :meth:`friction_partner_term`."""
+        form = self.partner_term(force, v)
+        if self.frictional:
+            velocity = self._velocity(velocity)
+            form = form + self.friction_partner_term(u, velocity, force, v, reference)
+        return form
+
+    # -- Coulomb friction on the relative slip (docs/method.md section 11) -----------
+
+    def slip_velocity(self, velocity):
+        """The relative tangential velocity (u' - T u')_t."""
+        return self.tangential(velocity - self.partner(velocity))
+
+    def tangential_consistency_term(self, u, v):
+        return self.weight * super().tangential_consistency_term(u, v)
+
+    def friction_term(self, u, velocity, normal_force, v, reference=None):
+        """The slave's part, weighted: the test's tangential part is v_t (the partner's,
+        -(T v)_t, is :meth:`friction_partner_term`)."""
+        return self.weight * super().friction_term(u, velocity, normal_force, v, reference)
+
+    def friction_partner_term(self, u, velocity, normal_force, v, reference=None):
+        """weight int lambda_t . (T v)_t, with ``v`` standing for T v: the friction term's
+        part tested by the partner, -(T v)_t in the relative test v_t - (T v)_t."""
+        traction = self.friction_traction(u, velocity, normal_force, reference)
+        return self.weight * ufl.dot(traction, self.tangential(v)) * self.ds
+
+    def friction_work(self, u, velocity, normal_force, v):
+        """The friction term tested with the increment ``v`` of both bodies: the slave's
+        part and the partner's, on T v (``v`` a tracked Function)."""
+        slave = self.friction_term(u, velocity, normal_force, v)
+        return slave + self.friction_partner_term(u, velocity, normal_force, self.partner(v))
+
     def energy_correction(self, u):
         return self.weight * super().energy_correction(u)
 
@@ -625,6 +665,7 @@ def pair_halves(
                 problem.nitsche_theta,
                 weight,
                 follow,
+                problem.friction,
             )  # fmt: skip
         )
     return halves

@@ -93,7 +93,7 @@ def step_solver(
             scheme.residual(part, *state, test)
             for part in contact_parts(problem, getattr(model, "reference", None))
         ]
-    coupling = _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs)
+    coupling = _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs, model)
     forms = StepForms(F, None, activity, facet_parts, (u, v, a), coupling)
     diagonal = _mass_diagonal(problem, scheme, state)
     system = AffineSystem(forms, w, bcs, diagonal, settings.matrix_type)
@@ -121,14 +121,18 @@ def _mass_diagonal(problem: ContactProblem, scheme: TimeScheme, state: tuple):
     return DiagonalDamping(diagonal, problem.damping.alpha, velocity, coefficient)
 
 
-def _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs) -> PairCoupling | None:
+def _pair_coupling(
+    problem, scheme, F, state, test, dirichlet_dofs, model=None
+) -> PairCoupling | None:
     """The terms of contact between bodies beyond the UFL forms (None without pairs): each
-    pair's partner-tested residual, written by the scheme like its own terms."""
+    pair's partner-tested residual, written by the scheme like its own terms (with the
+    friction law of ``model``, guarded or not)."""
     if not problem.pairs:
         return None
+    reference = getattr(model, "reference", None)
 
     def partner_term(pair, u, velocity, force, v):
-        return pair.partner_term(force, v)
+        return pair.partner_force_terms(u, velocity, force, v, reference)
 
     residuals = [
         scheme.residual(ContactTerms([pair], partner_term), *state, test) for pair in problem.pairs
@@ -423,8 +427,10 @@ class NitscheStepper(TimeLevels, BalanceSums):
         if self._guarded is None:
             return self.solver.solve_with_line_search()
         guarded, solver = self._guarded, self.solver
-        # every guarded solve of the step has the tolerance of Coulomb's equation
-        tolerance = solver.snes.getTolerances()[0] * guarded.coulomb_scale(solver)
+        # every guarded solve of the step has the tolerance of Coulomb's equation, on the
+        # scale of a plain solve's: at rest, the loads and the supports' reactions
+        scale = max(guarded.coulomb_scale(solver), solver.force_scale)
+        tolerance = solver.snes.getTolerances()[0] * scale
         try:
             return guarded.solve(solver, self._coasting_unknown(), tolerance, self.guard_updates)
         except SolverError as error:

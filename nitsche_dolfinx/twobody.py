@@ -43,8 +43,13 @@ __all__ = [
     "LOWER_CONTACT",
     "UPPER_BODY",
     "UPPER_CONTACT",
+    "BLOCK",
+    "BLOCK_BOTTOM",
     "ball_on_slab_mesh",
     "ball_on_slab_problem",
+    "block_on_slab_mesh",
+    "block_on_slab_problem",
+    "settled_displacement",
     "mirrored_bodies_mesh",
     "add_body_velocity_probes",
     "body_velocities",
@@ -399,3 +404,122 @@ def ball_on_slab_problem(
     velocities = {BALL: v0 * down, SLAB: np.zeros(dim)}
     problem.set_initial_conditions(velocity=body_velocities(problem, cells, velocities))
     return problem, cells
+
+
+#: Tags of the block-on-slab mesh: the cells of the block (and of the slab, :data:`SLAB`);
+#: the block's bottom (the slab's top and bottom: :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`).
+BLOCK, BLOCK_BOTTOM = 1, 1
+
+
+def _add_rectangle(geo, corner, size, cells) -> tuple[int, int, int]:
+    """A rectangle of the gmsh geo kernel meshed by a structured grid of ``cells``
+    (nx, ny) triangles: its surface, its bottom line and its top line."""
+    (x, y), (w, h) = corner, size
+    points = [geo.addPoint(*p, 0) for p in ((x, y), (x + w, y), (x + w, y + h), (x, y + h))]
+    lines = [geo.addLine(points[k], points[(k + 1) % 4]) for k in range(4)]
+    surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+    for line, count in zip(lines, (cells[0], cells[1]) * 2):
+        geo.mesh.setTransfiniteCurve(line, int(count) + 1)
+    geo.mesh.setTransfiniteSurface(surface)
+    geo.synchronize()
+    return surface, lines[0], lines[2]
+
+
+def block_on_slab_mesh(
+    width: float = 2.0,
+    height: float = 1.0,
+    nx: int = 8,
+    ny: int = 4,
+    slab_start: float = -1.5,
+    slab_length: float = 6.0,
+    thickness: float = 0.5,
+    slab_nx: int = 24,
+    slab_ny: int = 2,
+    gap: float = 1e-6,
+    comm=MPI.COMM_WORLD,
+):
+    """A block (-width/2, width/2) x (gap, gap + height) above a slab (slab_start,
+    slab_start + slab_length) x (-thickness, 0), each a structured grid of triangles
+    (``nx`` x ``ny`` x 2 and ``slab_nx`` x ``slab_ny`` x 2). Cells :data:`BLOCK`,
+    :data:`SLAB`; facets :data:`BLOCK_BOTTOM`, :data:`SLAB_TOP`, :data:`SLAB_BOTTOM`.
+    Returns ``(mesh, cell_tags, facet_tags)``."""
+    sizes = (width, height, slab_length, thickness)
+    if not (all(size > 0 for size in sizes) and gap >= 0):
+        raise ValueError(f"block {width!r} x {height!r}, slab {slab_length!r} x "
+                         f"{thickness!r} or gap {gap!r} out of range")  # fmt: skip
+    if min(nx, ny, slab_nx, slab_ny) < 1:
+        raise ValueError(f"each body needs a cell each way, got {nx, ny, slab_nx, slab_ny}")
+
+    def build():
+        import gmsh  # optional dependency: the rank that builds the model alone
+
+        gmsh.model.add("block on slab")
+        geo = gmsh.model.geo
+        block, bottom, _ = _add_rectangle(geo, (-width / 2, gap), (width, height), (nx, ny))
+        base, base_bottom, top = _add_rectangle(
+            geo, (slab_start, -thickness), (slab_length, thickness), (slab_nx, slab_ny)
+        )
+        groups = [(2, block, BLOCK), (2, base, SLAB), (1, bottom, BLOCK_BOTTOM),
+                  (1, top, SLAB_TOP), (1, base_bottom, SLAB_BOTTOM)]  # fmt: skip
+        for dim, entity, tag in groups:
+            gmsh.model.addPhysicalGroup(dim, [entity], tag)
+        gmsh.model.mesh.generate(2)
+
+    return distribute(build, comm, 2, [BLOCK_BOTTOM, SLAB_TOP])
+
+
+def settled_displacement(gravity_over_E: float, height: float, thickness: float, gap: float):
+    """The initial displacement of :func:`block_on_slab_problem` in the expression language
+    (docs/method.md section 13): each body in the equilibrium of its own weight (nu = 0),
+    the slab held at y = -thickness, the block resting on its sagging top,
+    u_y = s (y^2 - H_s^2) / 2 in the slab and -s (H y' - y'^2 / 2) - s H_s^2 / 2 in the
+    block (y' = y - gap its height), s = rho g / E."""
+    s, below = repr(gravity_over_E), repr(gravity_over_E * thickness**2 / 2)
+    up = f"(y - {gap!r})"
+    block = f"-{s} * ({height!r} * {up} - {up}^2 / 2) - {below}"
+    slab = f"{s} * (y^2 - {thickness**2!r}) / 2"
+    return [0.0, f"{block} if y > {gap / 2!r} else {slab}"]
+
+
+def block_on_slab_problem(
+    friction: float | None = 0.2,
+    v0: float = 1.0,
+    gravity: float = 1.0,
+    E: float = 1e4,
+    rho: float = 1.0,
+    degree: int = 1,
+    gamma0: float | None = None,
+    nitsche_theta: float = 1.0,
+    variant: str = "biased",
+    follow: bool = True,
+    comm=MPI.COMM_WORLD,
+    gamma0_scaling: str = "absolute",
+    mass: str = "consistent",
+    **mesh,
+):
+    """The block of :func:`~nitsche_dolfinx.cases.block_problem` (nu = 0, plane strain)
+    thrown at v0 along a slab of the same material held at its bottom, with Coulomb
+    friction ``friction`` between the block's bottom (the slave with ``"biased"``) and
+    the slab's top: a contact pair, closest points, paired again as the block slides
+    with ``follow``; gravity g. Each body starts in the equilibrium of its own weight
+    (:func:`settled_displacement`), the block ``gap`` above the slab, so that no force
+    acts between them at t = 0: a rigid block stops after v0^2 / (2 mu_f g).
+    ``mesh``: the keys of :func:`block_on_slab_mesh`. ``gamma0``: default 1e-3 / E (or
+    1e-3 with ``gamma0_scaling="E"``). Returns ``(problem, cell_tags)``."""
+    shape = {**dict(height=1.0, thickness=0.5, gap=1e-6), **mesh}
+    domain, cell_tags, facets = block_on_slab_mesh(comm=comm, **shape)
+    if gamma0 is None:
+        gamma0 = 1e-3 / E if gamma0_scaling == "absolute" else 1e-3
+    problem = ContactProblem(
+        domain, facets, Material(E=E, nu=0.0, rho=rho), degree, gamma0, nitsche_theta,
+        friction, gamma0_scaling=gamma0_scaling, mass=mass,
+    )  # fmt: skip
+    problem.add_contact_pair(BLOCK_BOTTOM, SLAB_TOP, variant, None, follow)
+    problem.add_dirichlet(SLAB_BOTTOM, [0.0, 0.0])
+    problem.add_body_force([0.0, -rho * gravity])
+    displacement = settled_displacement(
+        rho * gravity / E, shape["height"], shape["thickness"], shape["gap"]
+    )
+    velocity = body_velocities(problem, cell_tags, {BLOCK: [v0, 0.0], SLAB: [0.0, 0.0]})
+    problem.set_initial_conditions(displacement=displacement, velocity=velocity)
+    return problem, cell_tags

@@ -233,7 +233,10 @@ API = {
     "mesh-file-is-a-folder": (lambda: load_mesh(REPO), "is a folder, not a mesh file"),
     "pair-same-tag": (lambda: bar().add_contact_pair(1, 1), "two surfaces, got 1 twice"),
     "pair-variant": (lambda: bar().add_contact_pair(1, 2, variant="x"), "variant='x'"),
-    "pair-with-friction": (lambda: ring(friction=0.1).add_contact_pair(1, 2), "frictionless"),
+    "pair-with-penalty": (
+        lambda: ring(method="penalty").add_contact_pair(1, 2),
+        "method='penalty': contact between bodies is Nitsche contact",
+    ),
     "pair-direction-zero": (
         lambda: bar().add_contact_pair(1, 2, direction=[0.0]),
         "direction=[0.0]",

@@ -97,6 +97,12 @@ CASES = {
         ["shaker_2d.py", "--t-end", "1e-4", "--nx", "8"],
         "",
     ),
+    "block_on_slab_2d": (
+        "block_on_slab_2d.toml",
+        {"t_end = 8.5": "t_end = 0.5"},
+        ["block_on_slab_2d.py", "--t-end", "0.5"],
+        "",
+    ),
     "ball_on_slab_3d": (
         "ball_on_slab_3d.toml",
         {"t_end = 15.0": "t_end = 2.0", "dt = 0.1": "dt = 1.0",

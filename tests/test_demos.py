@@ -385,6 +385,7 @@ VERLET_RUNS = {
 #: The demos that refuse --scheme verlet, with the flags of a short run.
 VERLET_REFUSED = {
     "friction_block_2d.py": ("--nx", "2", "--t-end", "0.1"),  # the verlet scheme is frictionless
+    "block_on_slab_2d.py": ("--t-end", "0.1"),  # likewise
     "compare_methods_1d.py --penalty": (*VERLET_BAR, "--penalty"),  # and Nitsche's method
 }
 
