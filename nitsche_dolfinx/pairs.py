@@ -256,20 +256,22 @@ class _MasterSurface:
         return distance, facet, xi, normal
 
     def _closest_normal(self, facet, xi, partner: np.ndarray, points: np.ndarray):
-        """The outer normal of Gamma_2 seen from each point: along the line from the point
-        to its closest point (outward: away from the point outside the body, towards it
-        inside), which is the facet's normal inside a facet and turns continuously around
-        an edge or a vertex where facets meet, where the facet's own normal jumps (the
-        facet chosen there is the first of equally near ones, which round-off decides).
-        Within round-off of the surface, where that line has no direction, the facet's
-        normal, blended in over a millionth of the facet's size."""
+        """The outer normal of Gamma_2 seen from each point: the facet's own where the
+        closest point is inside the facet; where it is on the facet's edge or vertex,
+        along the line from the point to it (outward: away from the point outside the
+        body, towards it inside), which turns continuously around the edge or vertex
+        from one facet's normal to the next (the facets' own normals jump there, and
+        round-off picks the facet among equally near ones). Within round-off of the
+        surface, where that line has no direction, the facet's normal, blended in over a
+        millionth of the facet's size."""
         own = self._outer_normal(facet, xi, partner)
+        on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
         line = partner - points
         length = np.linalg.norm(line, axis=1)
         outside = np.einsum("nd,nd->n", line, own) <= 0
         along = np.where(outside, -1.0, 1.0)[:, None] * line / np.maximum(length, 1e-300)[:, None]
-        weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0)[:, None]
-        normal = weight * along + (1.0 - weight) * own
+        weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0) * on_edge
+        normal = weight[:, None] * along + (1.0 - weight[:, None]) * own
         return normal / np.linalg.norm(normal, axis=1, keepdims=True)
 
     def _project(self, facet: np.ndarray, targets: np.ndarray, across: np.ndarray):
