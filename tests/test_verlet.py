@@ -254,13 +254,16 @@ def test_two_bars_are_one_bar_on_a_wall_with_half_gamma0():
 @pytest.mark.parametrize("along_axis", [True, False], ids=["axis", "closest"])
 def test_two_disks_on_ranks_are_the_disks_serially(along_axis):
     """The two P2 disks (HRZ mass) through their impact, each rank with a part of both
-    contact surfaces: partners across the cut, as serially to round-off (1e-12)."""
+    contact surfaces: partners across the cut, as serially to round-off (1e-12). The
+    surfaces are paired once: paired again as they slide, the pairing depends on the
+    state, whose round-off it amplifies (measured here 4e-11; tests/test_sliding.py
+    checks the pairing that follows the sliding on 2 ranks)."""
     from nitsche_dolfinx.twobody import two_bodies_problem
 
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
         problem, _ = two_bodies_problem(dim=2, mesh_size=8.0, gap=1.0, along_axis=along_axis,
-                                        comm=comm, mass="lumped")  # fmt: skip
+                                        comm=comm, mass="lumped", follow=False)  # fmt: skip
         runs.append(Simulation(problem, VerletScheme(), dt="auto", t_end=4.0).run())
     parallel, serial = runs
     assert serial["contact_force"].max() > 0
