@@ -179,7 +179,7 @@ class _MasterSurface:
             ]
         xi = np.broadcast_to(xi, (len(facet), fdim))
         edges = self.edges[facet]
-        X = self.origins[facet] + np.einsum("nij,nj->ni", edges, xi)
+        X = self.reference_point(facet, xi)
         order = 2 if second else 1
         sources = [(self.geometry_element, self.nodes[facet])]
         if displaced and self.shift is not None:
@@ -291,7 +291,7 @@ class _MasterSurface:
             offset = (x[active] - targets[active]) @ across  # (``across`` is symmetric)
             t = tangent[active]
             gradient = np.einsum("ndf,nd->nf", t, offset)
-            gauss_newton = np.einsum("ndf,dg->nfg", t, across @ np.eye(self.gdim)) @ t
+            gauss_newton = np.einsum("ndf,dg->nfg", t, across) @ t
             hessian = gauss_newton + np.einsum("nd,ndfg->nfg", offset, curvature[active])
             step = -_solve_small(hessian, gauss_newton, gradient)
             before = xi[active]
@@ -383,7 +383,12 @@ class Pairing:
 
     def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray, direction=None):
         self.V, self.direction = V, direction
+        comm, gdim = V.mesh.comm, V.mesh.geometry.dim
         self._nodes, self._positions = _surface_nodes(V, slave_facets)
+        # the slave nodes of every rank, which each rank projects: the same at each pairing
+        global_nodes = V.dofmap.index_map.local_to_global(self._nodes)
+        self._every_node = np.concatenate(comm.allgather(global_nodes))
+        self._every_position = np.vstack(comm.allgather(self._positions)).reshape(-1, gdim)
         self._master = _MasterSurface(V, master_facets)
         self.normal, self.gap_vector = fem.Function(V), fem.Function(V)
         self.displacement = fem.Function(V)
@@ -405,12 +410,12 @@ class Pairing:
         else:
             self.displacement.x.array[:] = u.x.array
         moved = None if u is None else self.displacement.x.array
-        points = self._positions
         if moved is not None:
-            points = points + moved.reshape(-1, bs)[self._nodes][:, :gdim]
-        every_node = np.concatenate(comm.allgather(index_map.local_to_global(self._nodes)))
-        every_point = np.vstack(comm.allgather(points)).reshape(-1, gdim)
-        every_position = np.vstack(comm.allgather(self._positions)).reshape(-1, gdim)
+            points = self._positions + moved.reshape(-1, bs)[self._nodes][:, :gdim]
+        every_node, every_position = self._every_node, self._every_position
+        every_point = every_position
+        if moved is not None:
+            every_point = np.vstack(comm.allgather(points)).reshape(-1, gdim)
         master = self._master
         master.move(moved)
         distance, facet, xi, outer = master.closest(every_point, self.direction, exhaustive)
