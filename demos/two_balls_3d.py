@@ -128,7 +128,7 @@ def run_pair(args, dim: int, snapshot: Snapshot):
     bodies = [*body_columns(UPPER_BODY, dim), *body_columns(LOWER_BODY, dim)]
     angular = [*angular_momentum_columns(dim), *angular_momentum_columns(dim, reference=True)]
     columns = (*HISTORY_COLUMNS[:11], *momentum, *angular, *bodies)
-    return _run(args, problem, args.out, columns, args.quiet, snapshot)
+    return run_simulation(args, problem, args.out, columns, args.quiet, snapshot)
 
 
 def run_on_plane(args, dim: int):
@@ -144,10 +144,15 @@ def run_on_plane(args, dim: int):
     up[-1] = 1.0
     problem.add_obstacle(PlaneObstacle([0.0] * dim, up), 1)
     problem.set_initial_conditions(velocity=[-args.v0 * c for c in up])
-    return _run(args, problem, os.path.join(args.out, "plane"), HISTORY_COLUMNS[:11], True)
+    return run_simulation(
+        args, problem, os.path.join(args.out, "plane"), HISTORY_COLUMNS[:11], True
+    )
 
 
-def _run(args, problem, out, columns, quiet, callback=None):
+def run_simulation(args, problem, out, columns, quiet, callback=None):
+    """Run ``problem`` with the scheme, steps and output of the flags into ``out``: its
+    history, the global number of DOFs and the wall time of the run (the slowest rank's).
+    Also the run of `sliding_disks_2d.py`."""
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
         progress=not quiet, max_step_cuts=args.max_step_cuts,

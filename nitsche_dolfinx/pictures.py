@@ -139,11 +139,12 @@ def render_deformed(
 def _colour_scale(largest: float) -> tuple[float, float]:
     """A round top for a colour scale from 0 to ``largest`` and the step of its labels
     (1, 2 or 5 times a power of ten, at most 8 steps: 5 for the talk's ball, 5e8 for a
-    steel part in Pa)."""
+    steel part in Pa; 2 for a largest value of 8.4)."""
     if not largest > 0.0:
         return 1.0, 1.0
-    power = 10.0 ** (np.floor(np.log10(largest)) - 1)
-    step = next(m * power for m in (1.0, 2.0, 5.0, 10.0) if np.ceil(largest / (m * power)) <= 8)
+    power = 10.0 ** (np.floor(np.log10(largest)) - 1)  # largest / power in [10, 100)
+    multiples = (1.0, 2.0, 5.0, 10.0, 20.0)  # 20: at most 5 steps, whatever largest is
+    step = next(m * power for m in multiples if np.ceil(largest / (m * power)) <= 8)
     return step * np.ceil(largest / step), step
 
 

@@ -106,7 +106,8 @@ def energy_figure(
     """The talk's "Energy E^h for different methods", or one run's energies.
 
     Top: E^h of every run (of one run: E^h, E_Theta^h and the kinetic, elastic and
-    gravity parts). Middle, zoomed on the runs that keep E^h within 2 %: the relative
+    gravity parts, and with a column ``pairing_energy`` E_Theta^h less it, also in the
+    middle). Middle, zoomed on the runs that keep E^h within 2 %: the relative
     changes of E^h (thin) and E_Theta^h (thick), where the increases of E_Theta^h
     show. Bottom: the contact force. The first history is the main run.
     """
@@ -131,8 +132,15 @@ def energy_figure(
             change = energy_theta / energy_theta[0] - 1
             middle.plot(t, change, color=colour, lw=width + 0.4, label=rf"$E_\Theta^h$, {label}")
     if len(histories) == 1:
+        history = histories[0]
         for name, label, style in _PARTS:
-            top.plot(histories[0]["t"], histories[0][name], label=label, **style)
+            top.plot(history["t"], history[name], label=label, **style)
+        if "pairing_energy" in history:  # pairs that follow the sliding: what never rises
+            controlled = history["energy_theta"] - history["pairing_energy"]
+            label = r"$E_\Theta^h$ - pairing_energy"
+            top.plot(history["t"], controlled, label=label, color="tab:olive", ls=":")
+            middle.plot(history["t"], controlled / controlled[0] - 1, color="tab:olive",
+                        ls=":", lw=2, label=label)  # fmt: skip
     top.set_ylabel("energy $E^h$")
     top.legend(loc="lower left", fontsize="small")
     middle.set_ylabel("relative change")

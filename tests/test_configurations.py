@@ -79,6 +79,13 @@ CASES = {
         ["two_disks_2d.py", "--t-end", "2", *COARSE_FLAGS, "--no-compare"],
         "",
     ),
+    "sliding_disks_2d": (
+        "sliding_disks_2d.toml",
+        {"t_end = 14.0": "t_end = 8.0", "dt = 0.1": "dt = 0.5",
+         "mesh_size = 4.0": "mesh_size = 8.0"},
+        ["sliding_disks_2d.py", "--t-end", "8", "--dt", "0.5", "--mesh-size", "8"],
+        "",
+    ),
     "two_balls_3d": (
         "two_balls_3d.toml",
         {"t_end = 20.0": "t_end = 1.5", **COARSE},
@@ -182,7 +189,7 @@ def test_configuration_reproduces_demo(tmp_path, name):
 
 
 @pytest.mark.mpi
-@pytest.mark.parametrize("name", ["disk_2d", "two_disks_2d"])
+@pytest.mark.parametrize("name", ["disk_2d", "two_disks_2d", "sliding_disks_2d"])
 def test_configuration_reproduces_demo_in_parallel(mpi_tmp_path, name):
     """The same on every rank of mpirun -n 2 (the pair's partners on other ranks too)."""
     from mpi4py import MPI

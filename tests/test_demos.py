@@ -17,6 +17,8 @@ from runs import MPIRUN, assert_same_history, assert_xdmf_readable, run
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
 from nitsche_dolfinx.history import HISTORY_COLUMNS, body_columns
+from nitsche_dolfinx.pictures import _colour_scale
+from nitsche_dolfinx.series import read_solution
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))
@@ -242,6 +244,63 @@ def test_two_disks_demo_under_mpirun_matches_serial(tmp_path):
     assert assert_xdmf_readable(str(outs[1] / "solution.xdmf"), 3.0)[-1] == pytest.approx(3.0)
 
 
+def test_sliding_disks_demo_contract(tmp_path):
+    """docs/method.md section 11: two disks hitting off-centre, paired again by closest
+    points as they slide (coarse and with long steps: in contact from t = 5.75). The
+    columns: the total momentum and angular momenta, pairing_energy, each disk's; the
+    total momentum zero to round-off; E_Theta - pairing_energy never rising; the pairings
+    made again; the unbiased pair's gap and contact pressure on both surfaces; the energy
+    figure."""
+    out = tmp_path / "sliding"
+    result = run_demo(
+        "sliding_disks_2d.py", "--mesh-size", "8", "--dt", "0.25", "--t-end", "8",
+        "--output-every", "16", "--quiet", "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    with open(out / "history.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header == [
+        *HISTORY_COLUMNS[:11], "momentum_x", "momentum_y", "angular_momentum_z",
+        "angular_momentum_reference_z", "pairing_energy", *body_columns(1, 2),
+        *body_columns(2, 2),
+    ]  # fmt: skip
+    assert "580 DOFs" in result.stdout
+    history = read_history(str(out / "history.csv"))
+    assert history["contact_force"].max() > 0
+    one_disk = np.pi * 20.0**2 * np.hypot(2.0, 0.3)  # rho |disk| |v|
+    for component in ("momentum_x", "momentum_y"):
+        assert np.abs(history[component]).max() < 1e-10 * one_disk, component
+    # as in tests/test_sliding.py: a step's rise is the solver's tolerance and round-off
+    # (measured 5.5e-15 E_Theta(0)); the pairings' change is of order 1e-3 E_Theta(0)
+    energy, pairing = history["energy_theta"], history["pairing_energy"]
+    assert np.diff(energy - pairing).max() < 1e-11 * energy[0]
+    assert 0 < abs(pairing[-1]) < 1e-2 * energy[0]
+    pairings = int(re.search(r"(\d+) pairings", result.stdout).group(1))
+    assert pairings > 10  # measured: 25
+    times = assert_xdmf_readable(str(out / "solution.xdmf"), 8.0)
+    assert times == pytest.approx([0.0, 4.0, 8.0])
+    pytest.importorskip("h5py")
+    last = read_solution(str(out / "solution.xdmf"))[-1]  # in contact
+    upper = last.points[:, 1] > 0  # the reference positions: the upper disk above y = 0
+    for name in ("contact_pressure", "gap"):
+        values = last.fields[name].ravel()
+        # each surface is a slave (unbiased): pressed and penetrated on both
+        assert (values[upper] < -1e-9).any() and (values[~upper] < -1e-9).any(), name
+    pytest.importorskip("matplotlib")
+    assert (out / "energy.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("largest", [0.5, 5.0, 8.36, 9.99, 10.0, 84.0, 5.2e8])
+def test_colour_scale_of_the_pictures(largest):
+    """The von Mises scale of the pictures: a round top above the largest value, in at most
+    8 steps of 1, 2 or 5 times a power of ten (a largest value of 8.36, the sliding disks
+    on 2 ranks, found no step before)."""
+    top, step = _colour_scale(largest)
+    assert largest <= top <= largest + step and top / step <= 8
+    mantissa = step / 10.0 ** np.floor(np.log10(step))
+    assert min(abs(mantissa - m) for m in (1.0, 2.0, 5.0)) < 1e-9
+
+
 #: The user's-data demos (issue 30): the flags of a short run, the times of the restart,
 #: and a column that must show that the run is not trivial.
 USER_DATA_DEMOS = {
@@ -365,6 +424,11 @@ VERLET_RUNS = {
         "history.csv",
         (*IMPACT_COLUMNS, "momentum_x", "momentum_y", "momentum_z"),
         ("plane",),
+    ),
+    "sliding_disks_2d.py": VerletRun(
+        ("--mesh-size", "16", "--t-end", "0.3"),
+        "history.csv",
+        (*IMPACT_COLUMNS, "momentum_x", "momentum_y"),
     ),
     "indenter_2d.py": VerletRun(
         ("--nx", "16", "--t-end", "2e-6"),
