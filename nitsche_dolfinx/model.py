@@ -320,7 +320,9 @@ class ContactProblem:
         ``variant="unbiased"`` (the default): each surface is slave in turn with weight
         1/2, and the stresses of both bodies enter; ``"biased"``: ``tag_a`` is the slave,
         and only its stress enters.
-        ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
+        ``tag_a == tag_b``: self-contact, the surface paired with the nearest of its
+        points that faces it away from its own neighbourhood, at every step (docs/method.md
+        section 11). ``direction``: pair along this direction (from ``tag_a`` towards ``tag_b``)
         instead of with the closest point, with the contact normal n_c = direction: for
         a head-on collision, where it makes a pair of mirror-image bodies exactly one
         body on a rigid plane (docs/method.md section 11). Nitsche only; with the
@@ -332,7 +334,12 @@ class ContactProblem:
             self.method == "nitsche", "method", self.method,
             "contact between bodies is Nitsche contact (not penalty nor the mixed method)",
         )  # fmt: skip
-        require(tag_a != tag_b, "tag_b", tag_b, f"a pair needs two surfaces, got {tag_a} twice")
+        require(
+            tag_a != tag_b or (direction is None and follow is not False), "direction",
+            direction if follow is not False else follow,
+            "self-contact (a surface paired with itself) pairs closest points, again at every "
+            "step",
+        )  # fmt: skip
         unit = None
         if direction is not None:
             unit = as_array(direction, (self.gdim,), "contact pair direction")

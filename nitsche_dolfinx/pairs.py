@@ -54,6 +54,8 @@ _NEWTON_STEPS = 12  # Newton steps of a closest-point projection onto a curved f
 _HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer
 _XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends the projection
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
+_SELF_CANDIDATES = 48  # for self-contact: the nearest ones are the node's own neighbours
+_NEIGHBOURHOOD = 2.0  # self-contact: no partner nearer than this many own facet sizes
 _ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
 _NORMAL_BLEND = 1e-6  # closer than this share of a facet's size, its own normal counts
 
@@ -66,6 +68,14 @@ def _lagrange(cell_type, degree: int):
     return basix.create_element(
         basix.ElementFamily.P, cell_type, degree, basix.LagrangeVariant.equispaced
     )
+
+
+def _lowest_rank(comm, candidate: np.ndarray) -> np.ndarray:
+    """For each entry, the lowest rank where ``candidate`` is True (comm.size if none)."""
+    ranks = np.where(candidate, comm.rank, comm.size).astype(np.int64)
+    lowest = np.empty_like(ranks)
+    comm.Allreduce(ranks, lowest, op=MPI.MIN)
+    return lowest
 
 
 def _solve_small(matrix: np.ndarray, fallback: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -122,6 +132,7 @@ class _MasterSurface:
         self.geometry_element = _lagrange(cell_type, compat.geometry_degree(mesh))
         self.element = _lagrange(cell_type, compat.element_degree(V))
         cells, origins, edges = [], [], []
+        self._locals = []  # each facet's index among its cell's facets
         for facet in facets:
             cell = int(f2c.links(facet)[0])
             if cell >= owned_cells:
@@ -129,6 +140,7 @@ class _MasterSurface:
             local = int(np.flatnonzero(c2f.links(cell) == facet)[0])
             vertices = reference[facet_vertices[local]]
             cells.append(cell)
+            self._locals.append(local)
             origins.append(vertices[0])
             edges.append((vertices[1:] - vertices[0]).T)  # (tdim, fdim)
         count = len(cells)
@@ -204,12 +216,13 @@ class _MasterSurface:
         return self.origins[facet] + np.einsum("nij,nj->ni", self.edges[facet], xi)
 
     def _candidates(
-        self, points: np.ndarray, direction: np.ndarray | None, exhaustive: bool = False
-    ) -> np.ndarray:
+        self, points: np.ndarray, direction: np.ndarray | None, exhaustive: bool = False,
+        wanted: int = _CANDIDATES,
+    ) -> np.ndarray:  # fmt: skip
         """For each point, the facets with the nearest centroids (measured across the line
         along ``direction``, if given): a k-d tree search, n log n; ``exhaustive``: every
         facet (the reference the search is checked by)."""
-        count = len(self.cells) if exhaustive else min(_CANDIDATES, len(self.cells))
+        count = len(self.cells) if exhaustive else min(wanted, len(self.cells))
         centroids = self.centroids
         if direction is not None:  # coordinates across the line
             basis = np.linalg.svd(np.eye(self.gdim) - np.outer(direction, direction))[0]
@@ -220,25 +233,31 @@ class _MasterSurface:
         _, nearest = cKDTree(centroids).query(points, k=count)
         return np.asarray(nearest).reshape(len(points), count)
 
-    def closest(self, points: np.ndarray, direction: np.ndarray | None = None, exhaustive=False):
+    def closest(
+        self, points: np.ndarray, direction: np.ndarray | None = None, exhaustive=False,
+        facing=None,
+    ):  # fmt: skip
         """For each point: the distance to the nearest facet of this rank (inf if none),
         that facet's index, its facet coordinates xi there, and the outer normal.
 
         With a unit ``direction`` d, the partner is where the line through the point along
         d meets the surface: the distance is then that of the line to the facet (zero
         where it meets it, plus a tie-break favouring the nearest meeting point), and the
-        normal returned is -d."""
-        count, fdim = len(points), self.edges.shape[2]
-        distance = np.full(count, np.inf)
-        facet = np.full(count, -1, dtype=np.int64)
-        xi = np.zeros((count, fdim))
-        normal = np.zeros((count, self.gdim))
-        if not len(self.cells) or not count:
+        normal returned is -d. ``facing``: self-contact, ``(outward, reference, reach)``
+        for the points: their own outer normals, reference positions and neighbourhood
+        radii; only facets facing the point count (:meth:`_facing`)."""
+        fdim = self.edges.shape[2]
+        distance = np.full(len(points), np.inf)
+        facet = np.full(len(points), -1, dtype=np.int64)
+        xi = np.zeros((len(points), fdim))
+        normal = np.zeros((len(points), self.gdim))
+        if not len(self.cells) or not len(points):
             return distance, facet, xi, normal
         across = np.eye(self.gdim)
         if direction is not None:  # only the offset across the line counts
             across = across - np.outer(direction, direction)
-        candidates = self._candidates(points, direction, exhaustive)
+        count = _SELF_CANDIDATES if facing is not None else _CANDIDATES
+        candidates = self._candidates(points, direction, exhaustive, count)
         tried = candidates.ravel()
         targets = np.repeat(points, candidates.shape[1], axis=0)
         xi_tried, x = self._project(tried, targets, across)
@@ -246,14 +265,57 @@ class _MasterSurface:
         length = np.linalg.norm(offset @ across, axis=1)
         if direction is not None:
             length += 1e-9 * np.abs(offset @ direction)
+        if facing is not None:
+            per_point = candidates.shape[1]
+            own = [np.repeat(part, per_point, axis=0) for part in facing]
+            length[~self._facing(tried, xi_tried, x, targets, *own)] = np.inf
         best = np.argmin(length.reshape(candidates.shape), axis=1)  # the first on a tie
-        chosen = np.arange(count) * candidates.shape[1] + best
+        chosen = np.arange(len(points)) * candidates.shape[1] + best
         distance, facet, xi = length[chosen], tried[chosen], xi_tried[chosen]
         if direction is not None:
             normal[:] = -direction
         else:
             normal = self._closest_normal(facet, xi, x[chosen], points)
         return distance, facet, xi, normal
+
+    def own_normals(self, nodes: np.ndarray, index_map):
+        """For nodes of the surface itself (global indices of ``index_map``): the sum of
+        the outer normals of this rank's facets through each, at the node (zero if none),
+        and the size of the largest of them."""
+        normal, size = np.zeros((len(nodes), self.gdim)), np.zeros(len(nodes))
+        if not len(self.cells) or not len(nodes):
+            return normal, size
+        closure = self.element.entity_closure_dofs[self.edges.shape[2]]
+        facet, xi, node = [], [], []
+        for i, local in enumerate(self._locals):
+            dofs = closure[local]
+            facet.append(np.full(len(dofs), i))
+            on = self.element.points[dofs] - self.origins[i]  # (the dofs' points, in xi)
+            xi.append(np.linalg.lstsq(self.edges[i], on.T, rcond=None)[0].T)
+            node.append(self.dofs[i][dofs])
+        facet, xi = np.concatenate(facet), np.concatenate(xi)
+        node = index_map.local_to_global(np.concatenate(node).astype(np.int32))
+        order = np.argsort(nodes)
+        place = np.searchsorted(nodes[order], node)
+        place = np.minimum(place, len(nodes) - 1)
+        found = nodes[order][place] == node
+        place = order[place[found]]
+        at = self.points(facet[found], xi[found])[0]
+        np.add.at(normal, place, self._outer_normal(facet[found], xi[found], at))
+        np.maximum.at(size, place, self.size[facet[found]])
+        return normal, size
+
+    def _facing(self, facet, xi, x, points, outward, reference, reach) -> np.ndarray:
+        """Self-contact: whether the point x of each facet is a partner for its point,
+        whose own outer normal is ``outward``: the facet faces it (their normals more
+        than opposite: n . n_own < -1/2), x is in front of it (less than the facet's size
+        behind its tangent plane) and away from its own neighbourhood (further than
+        ``reach`` from it in the reference configuration)."""
+        normal = self._outer_normal(facet, xi, x)
+        opposite = np.einsum("nd,nd->n", normal, outward) < -0.5
+        front = np.einsum("nd,nd->n", x - points, outward) > -self.size[facet]
+        apart = self.points(facet, xi, displaced=False)[0] - reference
+        return opposite & front & (np.linalg.norm(apart, axis=1) > reach)
 
     def _closest_normal(self, facet, xi, partner: np.ndarray, points: np.ndarray):
         """The outer normal of Gamma_2 seen from each point: the facet's own where the
@@ -384,6 +446,9 @@ class Pairing:
     def __init__(self, V, slave_facets: np.ndarray, master_facets: np.ndarray, direction=None):
         self.V, self.direction = V, direction
         comm, gdim = V.mesh.comm, V.mesh.geometry.dim
+        #: A surface paired with itself: each node with the nearest point of the surface
+        #: that faces it, away from its own neighbourhood (:meth:`_MasterSurface._facing`).
+        self.self_contact = np.array_equal(np.sort(slave_facets), np.sort(master_facets))
         self._nodes, self._positions = _surface_nodes(V, slave_facets)
         # the slave nodes of every rank, which each rank projects: the same at each pairing
         global_nodes = V.dofmap.index_map.local_to_global(self._nodes)
@@ -418,15 +483,15 @@ class Pairing:
             every_point = np.vstack(comm.allgather(points)).reshape(-1, gdim)
         master = self._master
         master.move(moved)
-        distance, facet, xi, outer = master.closest(every_point, self.direction, exhaustive)
+        facing = self._own_sides(every_node, every_position) if self.self_contact else None
+        distance, facet, xi, outer = master.closest(every_point, self.direction, exhaustive, facing)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
         nearest = np.empty_like(distance)
         comm.Allreduce(distance, nearest, op=MPI.MIN)
-        if not np.all(np.isfinite(nearest)):
+        paired = np.isfinite(nearest)
+        if not self.self_contact and not paired.all():
             raise ValueError("the master surface of a contact pair has no facet")
-        candidate = np.where(distance == nearest, comm.rank, comm.size).astype(np.int64)
-        winner = np.empty_like(candidate)
-        comm.Allreduce(candidate, winner, op=MPI.MIN)
+        winner = _lowest_rank(comm, paired & (distance == nearest))
         mine = np.flatnonzero(winner == comm.rank)
         facet, xi = facet[mine], xi[mine]
 
@@ -453,16 +518,32 @@ class Pairing:
             indptr.astype(PETSc.IntType), columns.astype(PETSc.IntType), entries,
             PETSc.InsertMode.INSERT_VALUES, rows.astype(PETSc.IntType),
         )  # fmt: skip
+        partner = master.points(facet, xi, displaced=False)[0]  # its reference position
+        normal, gap = -outer[mine], partner - every_position[mine]
+        scale = master.size[facet]
+        if self.self_contact:  # the nodes no facet faces, by the rank they come from
+            counts = comm.allgather(len(self._nodes))
+            origin = np.repeat(np.arange(comm.size), counts)
+            alone = np.flatnonzero(~paired & (origin == comm.rank))
+            outward, _, reach = facing
+            lonely = (every_node[alone][:, None] * bs + component).ravel()
+            T.setValuesIJV(  # each its own partner: u - T u = 0, a gap of its reach
+                np.arange(len(lonely) + 1, dtype=PETSc.IntType), lonely.astype(PETSc.IntType),
+                np.ones(len(lonely)), PETSc.InsertMode.INSERT_VALUES,
+                lonely.astype(PETSc.IntType),
+            )  # fmt: skip
+            rows = np.concatenate([rows, lonely])
+            normal = np.vstack([normal, outward[alone]])
+            gap = np.vstack([gap, reach[alone, None] * outward[alone]])
+            scale = np.concatenate([scale, reach[alone] / _NEIGHBOURHOOD])
         T.assemble()
         if self.T is not None:
             self.T.destroy()
         self.T = T
-
-        partner = master.points(facet, xi, displaced=False)[0]  # its reference position
         nodal = {
-            self.normal: -outer[mine][:, :bs],
-            self.gap_vector: (partner - every_position[mine])[:, :bs],
-            self._scale: np.repeat(master.size[facet][:, None], bs, axis=1),
+            self.normal: normal[:, :bs],
+            self.gap_vector: gap[:, :bs],
+            self._scale: np.repeat(scale[:, None], bs, axis=1),
         }
         for function, value in nodal.items():
             vector = compat.create_vector(V)
@@ -473,6 +554,16 @@ class Pairing:
             vector.destroy()
         self._paired_relative = self._relative(self.displacement)
         self.generation += 1
+
+    def _own_sides(self, nodes: np.ndarray, positions: np.ndarray):
+        """Self-contact: each node's own outer normal (the mean of the normals of its
+        facets there: at a corner, between its faces), its reference position and the
+        radius of its neighbourhood (:data:`_NEIGHBOURHOOD` times the size of its largest
+        facet; collective)."""
+        normal, size = self._master.own_normals(nodes, self.V.dofmap.index_map)
+        own = self.V.mesh.comm.allreduce(np.hstack([normal, size[:, None]]))
+        outward = own[:, :-1] / np.linalg.norm(own[:, :-1], axis=1, keepdims=True)
+        return outward, positions, _NEIGHBOURHOOD * own[:, -1]
 
     def _relative(self, u: fem.Function) -> np.ndarray:
         """u - T u at the owned slave nodes, (nodes, bs)."""
@@ -487,6 +578,8 @@ class Pairing:
         by more than ``fraction`` of that size: the tangential part of the change of
         u - T u (collective). The nodes farther away do not count: the contact terms
         vanish there."""
+        if self.self_contact:  # (a node that no facet faced may face one now)
+            return True
         bs = self.V.dofmap.index_map_bs
         relative = self._relative(u)
         n = self.normal.x.array.reshape(-1, bs)[self._nodes]
@@ -654,12 +747,15 @@ def pair_halves(
     ``tag_b``: one, slave ``tag_a``, with weight 1 (``"biased"``), or one per surface
     with weight 1/2 (``"unbiased"``); paired along the unit vector ``direction`` (from
     ``tag_a`` towards ``tag_b``; reversed for the other half) or, None, with closest
-    points; ``follow``: paired again as the surfaces slide (:meth:`Pairing.slid`)."""
+    points; ``follow``: paired again as the surfaces slide (:meth:`Pairing.slid`).
+    ``tag_a == tag_b``: self-contact, one half with weight 1/2 (each node of the surface
+    is a slave, so that each touching pair of points is counted twice, as in the unbiased
+    variant), paired again at every step."""
     facets = {tag: problem.facets(tag) for tag in (tag_a, tag_b)}
     sides = [(tag_a, tag_b, direction)]
-    if variant == "unbiased":
+    if variant == "unbiased" and tag_a != tag_b:
         sides.append((tag_b, tag_a, None if direction is None else -direction))
-    weight = 1.0 if variant == "biased" else 0.5
+    weight = 1.0 if variant == "biased" and tag_a != tag_b else 0.5
     halves = []
     for slave, master, along in sides:
         pairing = Pairing(problem.V, facets[slave], facets[master], along)
