@@ -15,6 +15,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from .c_shape import c_shape_mesh
 from .keys import Key, is_number
 from .meshes import MAX_CELLS, bar_mesh, block_mesh
 from .parameters import ParameterError
@@ -80,6 +81,10 @@ def _ball_on_slab(comm, dim, mesh_size, radius, width, thickness, gap):
 
 def _block_on_slab(comm, **keys):
     return block_on_slab_mesh(**keys, comm=comm)
+
+
+def _c_shape(comm, **keys):
+    return c_shape_mesh(**keys, comm=comm)
 
 
 #: name -> the generator. The keys are those of the library's function, with its defaults.
@@ -169,6 +174,15 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         "cells 1 block, 2 slab; facets 1 block bottom, 2 slab top, 3 slab bottom",
         lambda nx, ny, slab_nx, slab_ny, **sizes: 2 * (nx * ny + slab_nx * slab_ny),
     ),
+    "c_shape": MeshGenerator(
+        "the rectangle (0, width) x (0, height) less a slot (back, width) x ((height - "
+        "slot)/2, (height + slot)/2): a C open at x = width (c_shape.c_shape_mesh)",
+        {"width": 4.0, "height": 2.2, "back": 1.0, "slot": 0.2, "mesh_size": 0.1, "order": 1},
+        _c_shape,
+        2,
+        "cells 1; facets 1 the slot's faces, 2 the bottom, 3 the rest",
+        lambda width, height, back, slot, mesh_size, order: 2 * width * height / mesh_size**2,
+    ),
 }
 
 
@@ -190,8 +204,11 @@ GENERATOR_KEYS: dict[str, Key] = {
     "slab_start": _key("number", "x of the slab's left end", math.isfinite, "finite"),
     "slab_length": _key("number", "length of the slab", _positive, "positive"),
     "length": _key("number", "length of the bar", _positive, "positive"),
-    "width": _key("number", "width of the block or the slab", _positive, "positive"),
-    "height": _key("number", "height of the block", _positive, "positive"),
+    "width": _key("number", "width of the block, the slab or the C", _positive, "positive"),
+    "height": _key("number", "height of the block or the C", _positive, "positive"),
+    "back": _key("number", "length of the C's closed end, where its slot ends", _positive,
+                 "positive"),
+    "slot": _key("number", "width of the C's slot", _positive, "positive"),
     "thickness": _key("number", "thickness of the slab", _positive, "positive"),
     "mesh_size": _key("number", "target edge length of the gmsh cells", _positive, "positive"),
     "order": _key("integer", "geometric order of the gmsh mesh (2: curved)",

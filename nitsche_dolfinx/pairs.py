@@ -55,7 +55,7 @@ _HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer
 _XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends the projection
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
 _SELF_CANDIDATES = 48  # for self-contact: the nearest ones are the node's own neighbours
-_NEIGHBOURHOOD = 2.0  # self-contact: no partner nearer than this many own facet sizes
+_FACING = 0.5  # self-contact: a normal faces a node's own if n . n_own < -_FACING
 _ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
 _NORMAL_BLEND = 1e-6  # closer than this share of a facet's size, its own normal counts
 
@@ -119,7 +119,8 @@ class _MasterSurface:
     (:meth:`move`)."""
 
     def __init__(self, V, facets: np.ndarray):
-        mesh = V.mesh
+        mesh, self.index_map = V.mesh, V.dofmap.index_map
+        self._nodes_of_facets = None
         tdim, self.gdim = mesh.topology.dim, mesh.geometry.dim
         fdim = tdim - 1
         mesh.topology.create_connectivity(fdim, tdim)
@@ -243,9 +244,9 @@ class _MasterSurface:
         With a unit ``direction`` d, the partner is where the line through the point along
         d meets the surface: the distance is then that of the line to the facet (zero
         where it meets it, plus a tie-break favouring the nearest meeting point), and the
-        normal returned is -d. ``facing``: self-contact, ``(outward, reference, reach)``
-        for the points: their own outer normals, reference positions and neighbourhood
-        radii; only facets facing the point count (:meth:`_facing`)."""
+        normal returned is -d. ``facing``: self-contact, ``(outward, nodes, size)`` for
+        the points: their own outer normals, global node indices and facet sizes; only
+        facets facing the point count (:meth:`_facing`)."""
         fdim = self.edges.shape[2]
         distance = np.full(len(points), np.inf)
         facet = np.full(len(points), -1, dtype=np.int64)
@@ -275,49 +276,61 @@ class _MasterSurface:
         if direction is not None:
             normal[:] = -direction
         else:
-            normal = self._closest_normal(facet, xi, x[chosen], points)
+            sides = None if facing is None else facing[:2]
+            normal = self._closest_normal(facet, xi, x[chosen], points, sides)
         return distance, facet, xi, normal
 
-    def own_normals(self, nodes: np.ndarray, index_map):
+    def own_normals(self, nodes: np.ndarray):
         """For nodes of the surface itself (global indices of ``index_map``): the sum of
         the outer normals of this rank's facets through each, at the node (zero if none),
         and the size of the largest of them."""
         normal, size = np.zeros((len(nodes), self.gdim)), np.zeros(len(nodes))
         if not len(self.cells) or not len(nodes):
             return normal, size
-        closure = self.element.entity_closure_dofs[self.edges.shape[2]]
-        facet, xi, node = [], [], []
-        for i, local in enumerate(self._locals):
-            dofs = closure[local]
-            facet.append(np.full(len(dofs), i))
-            on = self.element.points[dofs] - self.origins[i]  # (the dofs' points, in xi)
-            xi.append(np.linalg.lstsq(self.edges[i], on.T, rcond=None)[0].T)
-            node.append(self.dofs[i][dofs])
-        facet, xi = np.concatenate(facet), np.concatenate(xi)
-        node = index_map.local_to_global(np.concatenate(node).astype(np.int32))
+        facet, xi, node = self._facet_nodes()
         order = np.argsort(nodes)
-        place = np.searchsorted(nodes[order], node)
-        place = np.minimum(place, len(nodes) - 1)
-        found = nodes[order][place] == node
+        place = np.minimum(np.searchsorted(nodes[order], node.ravel()), len(nodes) - 1)
+        found = nodes[order][place] == node.ravel()
         place = order[place[found]]
-        at = self.points(facet[found], xi[found])[0]
-        np.add.at(normal, place, self._outer_normal(facet[found], xi[found], at))
-        np.maximum.at(size, place, self.size[facet[found]])
+        facet = np.repeat(facet, node.shape[1])[found]
+        xi = xi.reshape(-1, xi.shape[-1])[found]
+        at = self.points(facet, xi)[0]
+        np.add.at(normal, place, self._outer_normal(facet, xi, at))
+        np.maximum.at(size, place, self.size[facet])
         return normal, size
 
-    def _facing(self, facet, xi, x, points, outward, reference, reach) -> np.ndarray:
-        """Self-contact: whether the point x of each facet is a partner for its point,
-        whose own outer normal is ``outward``: the facet faces it (their normals more
-        than opposite: n . n_own < -1/2), x is in front of it (less than the facet's size
-        behind its tangent plane) and away from its own neighbourhood (further than
-        ``reach`` from it in the reference configuration)."""
-        normal = self._outer_normal(facet, xi, x)
-        opposite = np.einsum("nd,nd->n", normal, outward) < -0.5
-        front = np.einsum("nd,nd->n", x - points, outward) > -self.size[facet]
-        apart = self.points(facet, xi, displaced=False)[0] - reference
-        return opposite & front & (np.linalg.norm(apart, axis=1) > reach)
+    def _facet_nodes(self):
+        """Each facet's nodes: the facets (0, 1, ...), the nodes' facet coordinates
+        (facets, nodes, fdim) and global indices (facets, nodes); computed once."""
+        if self._nodes_of_facets is None:
+            closure = self.element.entity_closure_dofs[self.edges.shape[2]]
+            xi, node = [], []
+            for i, local in enumerate(self._locals):
+                dofs = closure[local]
+                on = self.element.points[dofs] - self.origins[i]  # (the dofs' points, in xi)
+                xi.append(np.linalg.lstsq(self.edges[i], on.T, rcond=None)[0].T)
+                node.append(self.dofs[i][dofs])
+            node = self.index_map.local_to_global(np.concatenate(node).astype(np.int32))
+            self._nodes_of_facets = (
+                np.arange(len(self.cells)),
+                np.array(xi),
+                node.reshape(len(self.cells), -1),
+            )
+        return self._nodes_of_facets
 
-    def _closest_normal(self, facet, xi, partner: np.ndarray, points: np.ndarray):
+    def _facing(self, facet, xi, x, points, outward, node, size) -> np.ndarray:
+        """Self-contact: whether the point x of each facet is a partner for its point,
+        the node ``node`` whose own outer normal is ``outward``: the facet faces it
+        (their normals more than opposite: n . n_own < -1/2), x is in front of it (less
+        than the facet's size behind its tangent plane), and the facet is not one of the
+        node's own (the surface near a node faces it only at a sharp concave corner)."""
+        normal = self._outer_normal(facet, xi, x)
+        opposite = np.einsum("nd,nd->n", normal, outward) < -_FACING
+        front = np.einsum("nd,nd->n", x - points, outward) > -self.size[facet]
+        own = (self._facet_nodes()[2][facet] == node[:, None]).any(axis=1)
+        return opposite & front & ~own
+
+    def _closest_normal(self, facet, xi, partner: np.ndarray, points: np.ndarray, sides=None):
         """The outer normal of Gamma_2 seen from each point: the facet's own where the
         closest point is inside the facet; where it is on the facet's edge or vertex,
         along the line from the point to it (outward: away from the point outside the
@@ -325,12 +338,23 @@ class _MasterSurface:
         from one facet's normal to the next (the facets' own normals jump there, and
         round-off picks the facet among equally near ones). Within round-off of the
         surface, where that line has no direction, the facet's normal, blended in over a
-        millionth of the facet's size."""
+        millionth of the facet's size. ``sides``: self-contact, ``(outward, nodes)``, the
+        outer normals at the surface's nodes: outside or inside by the one at the facet's
+        node nearest to the closest point (the facet's plane runs on past the end of the
+        part of the surface that faces the point, where the body may have ended)."""
         own = self._outer_normal(facet, xi, partner)
         on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
         line = partner - points
         length = np.linalg.norm(line, axis=1)
-        outside = np.einsum("nd,nd->n", line, own) <= 0
+        side = own
+        if sides is not None:
+            outward, nodes = sides
+            _, node_xi, node_ids = self._facet_nodes()
+            nearest = np.argmin(np.linalg.norm(node_xi[facet] - xi[:, None], axis=2), axis=1)
+            order = np.argsort(nodes)
+            at = order[np.searchsorted(nodes[order], node_ids[facet, nearest])]
+            side = np.where(on_edge[:, None], outward[at], own)
+        outside = np.einsum("nd,nd->n", line, side) <= 0
         along = np.where(outside, -1.0, 1.0)[:, None] * line / np.maximum(length, 1e-300)[:, None]
         weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0) * on_edge
         normal = weight[:, None] * along + (1.0 - weight[:, None]) * own
@@ -483,7 +507,7 @@ class Pairing:
             every_point = np.vstack(comm.allgather(points)).reshape(-1, gdim)
         master = self._master
         master.move(moved)
-        facing = self._own_sides(every_node, every_position) if self.self_contact else None
+        facing = self._own_sides(every_node) if self.self_contact else None
         distance, facet, xi, outer = master.closest(every_point, self.direction, exhaustive, facing)
         # the rank with the nearest facet computes the node's row (the lowest on a tie)
         nearest = np.empty_like(distance)
@@ -493,6 +517,8 @@ class Pairing:
             raise ValueError("the master surface of a contact pair has no facet")
         winner = _lowest_rank(comm, paired & (distance == nearest))
         mine = np.flatnonzero(winner == comm.rank)
+        if self.self_contact:
+            mine, alone = self._alone(mine, paired, outer, facing[0])
         facet, xi = facet[mine], xi[mine]
 
         # T's rows: the basis functions of the partner's cell at the partner point; those
@@ -521,21 +547,18 @@ class Pairing:
         partner = master.points(facet, xi, displaced=False)[0]  # its reference position
         normal, gap = -outer[mine], partner - every_position[mine]
         scale = master.size[facet]
-        if self.self_contact:  # the nodes no facet faces, by the rank they come from
-            counts = comm.allgather(len(self._nodes))
-            origin = np.repeat(np.arange(comm.size), counts)
-            alone = np.flatnonzero(~paired & (origin == comm.rank))
-            outward, _, reach = facing
+        if self.self_contact:
+            outward, _, size = facing
             lonely = (every_node[alone][:, None] * bs + component).ravel()
-            T.setValuesIJV(  # each its own partner: u - T u = 0, a gap of its reach
+            T.setValuesIJV(  # each its own partner: u - T u = 0, a gap of a facet's size
                 np.arange(len(lonely) + 1, dtype=PETSc.IntType), lonely.astype(PETSc.IntType),
                 np.ones(len(lonely)), PETSc.InsertMode.INSERT_VALUES,
                 lonely.astype(PETSc.IntType),
             )  # fmt: skip
             rows = np.concatenate([rows, lonely])
             normal = np.vstack([normal, outward[alone]])
-            gap = np.vstack([gap, reach[alone, None] * outward[alone]])
-            scale = np.concatenate([scale, reach[alone] / _NEIGHBOURHOOD])
+            gap = np.vstack([gap, size[alone, None] * outward[alone]])
+            scale = np.concatenate([scale, size[alone]])
         T.assemble()
         if self.T is not None:
             self.T.destroy()
@@ -555,15 +578,28 @@ class Pairing:
         self._paired_relative = self._relative(self.displacement)
         self.generation += 1
 
-    def _own_sides(self, nodes: np.ndarray, positions: np.ndarray):
+    def _alone(self, mine: np.ndarray, paired: np.ndarray, outer: np.ndarray, outward):
+        """Self-contact: of the nodes this rank paired (``mine``), those whose contact
+        normal faces them, and the nodes without a partner that this rank is to write:
+        those no facet faces (by the rank they come from), and those of ``mine`` whose
+        nearest point is on the edge of the facing part of the surface and seen at a
+        glancing angle (the line to it does not face the node: it has slid off the
+        surface's end; docs/method.md section 11)."""
+        comm = self.V.mesh.comm
+        origin = np.repeat(np.arange(comm.size), comm.allgather(len(self._nodes)))
+        faces = np.einsum("nd,nd->n", outer[mine], outward[mine]) < -_FACING
+        alone = np.flatnonzero(~paired & (origin == comm.rank))
+        return mine[faces], np.concatenate([alone, mine[~faces]])
+
+    def _own_sides(self, nodes: np.ndarray):
         """Self-contact: each node's own outer normal (the mean of the normals of its
-        facets there: at a corner, between its faces), its reference position and the
-        radius of its neighbourhood (:data:`_NEIGHBOURHOOD` times the size of its largest
-        facet; collective)."""
-        normal, size = self._master.own_normals(nodes, self.V.dofmap.index_map)
-        own = self.V.mesh.comm.allreduce(np.hstack([normal, size[:, None]]))
-        outward = own[:, :-1] / np.linalg.norm(own[:, :-1], axis=1, keepdims=True)
-        return outward, positions, _NEIGHBOURHOOD * own[:, -1]
+        facets there: at a corner, between its faces), the node itself and the size of
+        its largest facet (collective)."""
+        normal, size = self._master.own_normals(nodes)
+        comm = self.V.mesh.comm
+        comm.Allreduce(MPI.IN_PLACE, normal, op=MPI.SUM)
+        comm.Allreduce(MPI.IN_PLACE, size, op=MPI.MAX)
+        return normal / np.linalg.norm(normal, axis=1, keepdims=True), nodes, size
 
     def _relative(self, u: fem.Function) -> np.ndarray:
         """u - T u at the owned slave nodes, (nodes, bs)."""

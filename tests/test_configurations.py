@@ -110,6 +110,12 @@ CASES = {
         ["block_on_slab_2d.py", "--t-end", "0.5"],
         "",
     ),
+    "c_shape_2d": (
+        "c_shape_2d.toml",
+        {"t_end = 3.0": "t_end = 0.5", "mesh_size = 0.1": "mesh_size = 0.2"},
+        ["c_shape_2d.py", "--t-end", "0.5", "--mesh-size", "0.2"],
+        "",
+    ),
     "ball_on_slab_3d": (
         "ball_on_slab_3d.toml",
         {"t_end = 15.0": "t_end = 2.0", "dt = 0.1": "dt = 1.0",

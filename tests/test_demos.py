@@ -440,6 +440,9 @@ VERLET_RUNS = {
         "history.csv",
         (*IMPACT_COLUMNS, "reaction_1_x", "reaction_1_y", "damping_dissipation"),
     ),
+    "c_shape_2d.py": VerletRun(
+        ("--mesh-size", "0.2", "--t-end", "0.02"), "history.csv", IMPACT_COLUMNS
+    ),
     "ball_on_slab_3d.py": VerletRun(
         ("--dim", "2", "--t-end", "0.1"),
         "history.csv",
