@@ -231,7 +231,10 @@ API = {
     "gamma0-scaling-unknown": (lambda: bar(gamma0_scaling="stress"), "gamma0_scaling='stress'"),
     "gamma0-E-too-large": (lambda: bar(gamma0=1e3), "gamma0 * E = 1e+03"),
     "mesh-file-is-a-folder": (lambda: load_mesh(REPO), "is a folder, not a mesh file"),
-    "pair-same-tag": (lambda: bar().add_contact_pair(1, 1), "two surfaces, got 1 twice"),
+    "self-pair-direction": (
+        lambda: bar().add_contact_pair(1, 1, direction=[1.0]),
+        "self-contact (a surface paired",
+    ),
     "pair-variant": (lambda: bar().add_contact_pair(1, 2, variant="x"), "variant='x'"),
     "pair-with-penalty": (
         lambda: ring(method="penalty").add_contact_pair(1, 2),
