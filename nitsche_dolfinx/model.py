@@ -340,6 +340,11 @@ class ContactProblem:
             "self-contact (a surface paired with itself) pairs closest points, again at every "
             "step",
         )  # fmt: skip
+        require(
+            tag_a != tag_b or self.gdim > 1, "tag_b", tag_b,
+            f"a surface paired with itself (tag {tag_a} twice) is self-contact, which needs a "
+            "2D or 3D mesh (in 1D a surface is a point)",
+        )  # fmt: skip
         unit = None
         if direction is not None:
             unit = as_array(direction, (self.gdim,), "contact pair direction")

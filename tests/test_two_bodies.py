@@ -109,7 +109,7 @@ def test_pair_refuses_what_it_does_not_do():
     problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.0))
     with pytest.raises(ParameterError, match="variant='sideways'"):
         problem.add_contact_pair(1, 2, variant="sideways")
-    with pytest.raises(ParameterError, match="two surfaces"):
+    with pytest.raises(ParameterError, match="self-contact, which needs a 2D or 3D mesh"):
         problem.add_contact_pair(1, 1)
 
 
