@@ -25,47 +25,55 @@ def c_shape_mesh(
     slot: float = 0.2,
     mesh_size: float = 0.1,
     order: int = 1,
+    depth: float = 0.0,
     comm=MPI.COMM_WORLD,
 ):
     """The rectangle (0, width) x (0, height) less the slot (back, width) x ((height -
     slot)/2, (height + slot)/2): two arms joined at x < back, open at x = width; gmsh
-    triangles of size ``mesh_size`` and geometric ``order``. Facets :data:`C_SLOT`,
-    :data:`C_BOTTOM`, :data:`C_REST`. Returns ``(mesh, cell_tags, facet_tags)``, the cells
-    all tagged 1."""
-    if not (width > back > 0 and height > slot > 0 and mesh_size > 0):
+    triangles of size ``mesh_size`` and geometric ``order``. ``depth`` > 0: the prism of
+    that depth along z over it, in tetrahedra (the slot's faces then end at z = 0 and
+    z = depth). Facets :data:`C_SLOT`, :data:`C_BOTTOM`, :data:`C_REST`. Returns
+    ``(mesh, cell_tags, facet_tags)``, the cells all tagged 1."""
+    if not (width > back > 0 and height > slot > 0 and mesh_size > 0 and depth >= 0):
         raise ValueError(
             f"the slot ({back!r}, {width!r}) x {slot!r} does not fit in the rectangle "
-            f"{width!r} x {height!r} (or mesh_size {mesh_size!r} <= 0)"
+            f"{width!r} x {height!r} (or mesh_size {mesh_size!r} <= 0, depth {depth!r} < 0)"
         )
     low, high = (height - slot) / 2, (height + slot) / 2
+    dim = 3 if depth > 0 else 2
 
     def build():
         import gmsh  # optional dependency: the rank that builds the model alone
 
         gmsh.model.add("C shape")
         occ = gmsh.model.occ
-        outer = occ.addRectangle(0.0, 0.0, 0.0, width, height)
-        cut = occ.addRectangle(back, low, 0.0, width - back, slot)
-        body, _ = occ.cut([(2, outer)], [(2, cut)])
+        if dim == 2:
+            outer = occ.addRectangle(0.0, 0.0, 0.0, width, height)
+            cut = occ.addRectangle(back, low, 0.0, width - back, slot)
+        else:  # (the cut passes through the prism's ends)
+            outer = occ.addBox(0.0, 0.0, 0.0, width, height, depth)
+            cut = occ.addBox(back, low, -depth, 2 * (width - back), slot, 3 * depth)
+        body, _ = occ.cut([(dim, outer)], [(dim, cut)])
         occ.synchronize()
         groups = {C_SLOT: [], C_BOTTOM: [], C_REST: []}
         tolerance = 1e-9 * width
-        for _, curve in gmsh.model.getBoundary(body, oriented=False):
-            x, y, _ = occ.getCenterOfMass(1, curve)
+        for _, entity in gmsh.model.getBoundary(body, oriented=False):
+            x, y, z = occ.getCenterOfMass(dim - 1, entity)
+            inside = dim == 2 or tolerance < z < depth - tolerance
             if abs(y) < tolerance:
-                groups[C_BOTTOM].append(curve)
+                groups[C_BOTTOM].append(entity)
             elif (
-                x > back - tolerance
-                and x < width - tolerance
+                back - tolerance < x < width - tolerance
                 and low - tolerance < y < high + tolerance
+                and inside
             ):
-                groups[C_SLOT].append(curve)
+                groups[C_SLOT].append(entity)
             else:
-                groups[C_REST].append(curve)
-        gmsh.model.addPhysicalGroup(2, [body[0][1]], 1)
-        for tag, curves in groups.items():
-            gmsh.model.addPhysicalGroup(1, curves, tag)
+                groups[C_REST].append(entity)
+        gmsh.model.addPhysicalGroup(dim, [body[0][1]], 1)
+        for tag, entities in groups.items():
+            gmsh.model.addPhysicalGroup(dim - 1, entities, tag)
         set_mesh_size(gmsh, mesh_size)
-        generate(gmsh, 2, order)
+        generate(gmsh, dim, order)
 
-    return distribute(build, comm, 2, [C_SLOT, C_BOTTOM])
+    return distribute(build, comm, dim, [C_SLOT, C_BOTTOM])

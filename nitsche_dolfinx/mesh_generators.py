@@ -83,8 +83,13 @@ def _block_on_slab(comm, **keys):
     return block_on_slab_mesh(**keys, comm=comm)
 
 
-def _c_shape(comm, **keys):
-    return c_shape_mesh(**keys, comm=comm)
+def _c_shape(comm, dim, depth, **keys):
+    return c_shape_mesh(**keys, depth=depth if dim == 3 else 0.0, comm=comm)
+
+
+def _c_shape_cells(dim, width, height, back, slot, mesh_size, order, depth):
+    area = width * height / mesh_size**2
+    return 2 * area if dim == 2 else 6 * area * depth / mesh_size
 
 
 #: name -> the generator. The keys are those of the library's function, with its defaults.
@@ -176,12 +181,22 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
     ),
     "c_shape": MeshGenerator(
         "the rectangle (0, width) x (0, height) less a slot (back, width) x ((height - "
-        "slot)/2, (height + slot)/2): a C open at x = width (c_shape.c_shape_mesh)",
-        {"width": 4.0, "height": 2.2, "back": 1.0, "slot": 0.2, "mesh_size": 0.1, "order": 1},
+        "slot)/2, (height + slot)/2): a C open at x = width; dim = 3: the prism of depth "
+        "depth over it (c_shape.c_shape_mesh)",
+        {
+            "dim": 2,
+            "width": 4.0,
+            "height": 2.2,
+            "back": 1.0,
+            "slot": 0.2,
+            "mesh_size": 0.1,
+            "order": 1,
+            "depth": 1.0,
+        },
         _c_shape,
-        2,
+        None,
         "cells 1; facets 1 the slot's faces, 2 the bottom, 3 the rest",
-        lambda width, height, back, slot, mesh_size, order: 2 * width * height / mesh_size**2,
+        _c_shape_cells,
     ),
 }
 
@@ -209,6 +224,7 @@ GENERATOR_KEYS: dict[str, Key] = {
     "back": _key("number", "length of the C's closed end, where its slot ends", _positive,
                  "positive"),
     "slot": _key("number", "width of the C's slot", _positive, "positive"),
+    "depth": _key("number", "depth of the 3D C along z", _positive, "positive"),
     "thickness": _key("number", "thickness of the slab", _positive, "positive"),
     "mesh_size": _key("number", "target edge length of the gmsh cells", _positive, "positive"),
     "order": _key("integer", "geometric order of the gmsh mesh (2: curved)",
@@ -216,7 +232,8 @@ GENERATOR_KEYS: dict[str, Key] = {
     "radius": _key("number", "radius of the disk or ball", _positive, "positive"),
     "center": _key("vector", "centre of the disk or ball", lambda c: True, ""),
     "gap": _key("number", "initial gap between the bodies", lambda g: g >= 0, ">= 0"),
-    "dim": _key("integer", "2 (disks) or 3 (balls)", (2, 3).__contains__, "2 or 3"),
+    "dim": _key("integer", "2 (disks, the C) or 3 (balls, the prism)", (2, 3).__contains__,
+                "2 or 3"),
     "offset": _key("number", "distance of the bodies' centres along x (an off-centre hit)",
                    lambda d: abs(d) < 40.0, "less than a diameter (40) in magnitude"),
 }  # fmt: skip

@@ -56,6 +56,8 @@ _XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends th
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
 _SELF_CANDIDATES = 48  # for self-contact: the nearest ones are the node's own neighbours
 _FACING = 0.5  # self-contact: a normal faces a node's own if n . n_own < -_FACING
+_FLAT = 0.03  # self-contact: the surface turns where n . n_facet < 1 - _FLAT (14 degrees)
+_BEYOND = 0.5  # self-contact: no partner this many facet sizes beyond the surface's end
 _ROUNDOFF = 1e-12  # a basis function's value below this at a partner point is a zero
 _NORMAL_BLEND = 1e-6  # closer than this share of a facet's size, its own normal counts
 
@@ -339,26 +341,53 @@ class _MasterSurface:
         round-off picks the facet among equally near ones). Within round-off of the
         surface, where that line has no direction, the facet's normal, blended in over a
         millionth of the facet's size. ``sides``: self-contact, ``(outward, nodes)``, the
-        outer normals at the surface's nodes: outside or inside by the one at the facet's
-        node nearest to the closest point (the facet's plane runs on past the end of the
-        part of the surface that faces the point, where the body may have ended)."""
+        outer normals at the surface's nodes (:meth:`_surface_turns`): where the surface
+        does not turn at the edge (it ends there, or goes on in the facet's plane), the
+        facet's normal, the plane going on past the edge; where it turns, outside or
+        inside by the surface's normal at the facet's node nearest to the closest point."""
         own = self._outer_normal(facet, xi, partner)
         on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
         line = partner - points
         length = np.linalg.norm(line, axis=1)
-        side = own
+        side, turns = own, on_edge
         if sides is not None:
-            outward, nodes = sides
-            _, node_xi, node_ids = self._facet_nodes()
-            nearest = np.argmin(np.linalg.norm(node_xi[facet] - xi[:, None], axis=2), axis=1)
-            order = np.argsort(nodes)
-            at = order[np.searchsorted(nodes[order], node_ids[facet, nearest])]
-            side = np.where(on_edge[:, None], outward[at], own)
+            turns, surface = self._surface_turns(facet, xi, own, sides)
+            turns &= on_edge
+            side = np.where(on_edge[:, None], surface, own)
         outside = np.einsum("nd,nd->n", line, side) <= 0
         along = np.where(outside, -1.0, 1.0)[:, None] * line / np.maximum(length, 1e-300)[:, None]
-        weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0) * on_edge
+        weight = np.clip(length / (_NORMAL_BLEND * self.size[facet]), 0.0, 1.0) * turns
         normal = weight[:, None] * along + (1.0 - weight[:, None]) * own
         return normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+    def _surface_turns(self, facet, xi, own, sides):
+        """Self-contact: whether the surface turns at the points xi of the facets (its
+        normal at the facet's node nearest to xi, from ``sides`` = ``(outward, nodes)``,
+        differs from the facet's own normal ``own``), and that normal. On a flat part of
+        the surface and at its end, where the surface's normal is that of its last facet,
+        it does not."""
+        outward, nodes = sides
+        _, node_xi, node_ids = self._facet_nodes()
+        nearest = np.argmin(np.linalg.norm(node_xi[facet] - xi[:, None], axis=2), axis=1)
+        order = np.argsort(nodes)
+        surface = outward[order[np.searchsorted(nodes[order], node_ids[facet, nearest])]]
+        return np.einsum("nd,nd->n", surface, own) < 1.0 - _FLAT, surface
+
+    def beyond_end(self, facet, xi, points, sides) -> np.ndarray:
+        """Self-contact: whether each point is beyond the end of the surface, its closest
+        point on an edge of the facet where the surface does not turn
+        (:meth:`_surface_turns`), farther than :data:`_BEYOND` times the facet's size
+        from it along the facet (not across: in contact, across is the penetration)."""
+        if not len(facet):
+            return np.zeros(0, dtype=bool)
+        partner = self.points(facet, xi)[0]
+        own = self._outer_normal(facet, xi, partner)
+        on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
+        turns = self._surface_turns(facet, xi, own, sides)[0]
+        offset = points - partner
+        along = offset - np.einsum("nd,nd->n", offset, own)[:, None] * own
+        far = np.linalg.norm(along, axis=1) > _BEYOND * self.size[facet]
+        return on_edge & ~turns & far
 
     def _project(self, facet: np.ndarray, targets: np.ndarray, across: np.ndarray):
         """The points of the facets closest to the targets, measured by ``across`` (the
@@ -518,7 +547,8 @@ class Pairing:
         winner = _lowest_rank(comm, paired & (distance == nearest))
         mine = np.flatnonzero(winner == comm.rank)
         if self.self_contact:
-            mine, alone = self._alone(mine, paired, outer, facing[0])
+            beyond = master.beyond_end(facet[mine], xi[mine], every_point[mine], facing[:2])
+            mine, alone = self._alone(mine, paired, outer, facing[0], beyond)
         facet, xi = facet[mine], xi[mine]
 
         # T's rows: the basis functions of the partner's cell at the partner point; those
@@ -578,16 +608,17 @@ class Pairing:
         self._paired_relative = self._relative(self.displacement)
         self.generation += 1
 
-    def _alone(self, mine: np.ndarray, paired: np.ndarray, outer: np.ndarray, outward):
+    def _alone(self, mine: np.ndarray, paired, outer: np.ndarray, outward, beyond):
         """Self-contact: of the nodes this rank paired (``mine``), those whose contact
         normal faces them, and the nodes without a partner that this rank is to write:
         those no facet faces (by the rank they come from), and those of ``mine`` whose
-        nearest point is on the edge of the facing part of the surface and seen at a
-        glancing angle (the line to it does not face the node: it has slid off the
-        surface's end; docs/method.md section 11)."""
+        nearest point is seen at a glancing angle (the line to an edge where the surface
+        turns does not face the node) or is ``beyond`` the surface's end
+        (docs/method.md section 11)."""
         comm = self.V.mesh.comm
         origin = np.repeat(np.arange(comm.size), comm.allgather(len(self._nodes)))
         faces = np.einsum("nd,nd->n", outer[mine], outward[mine]) < -_FACING
+        faces &= ~beyond
         alone = np.flatnonzero(~paired & (origin == comm.rank))
         return mine[faces], np.concatenate([alone, mine[~faces]])
 
