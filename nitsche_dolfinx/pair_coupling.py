@@ -117,6 +117,11 @@ class PairCoupling:
         with it the affine facet terms of the constant Jacobian."""
         return tuple(pair.pairing.generation for pair in self.pairs)
 
+    def pairing_functions(self) -> set:
+        """The Functions a new pairing changes and forms hold: each pair's normal and gap
+        vector."""
+        return {f for pair in self.pairs for f in (pair.pairing.normal, pair.pairing.gap_vector)}
+
     def update(self, x: PETSc.Vec | None = None) -> None:
         """The partner of the iterate ``x`` (before each residual); without ``x``, the
         partners of every Function of the state (when they changed: before a solve)."""
