@@ -23,9 +23,10 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
+from ufl.algorithms import expand_derivatives
 
 from . import compat
-from .assembly import CouplingEntries, csr_pointers
+from .assembly import CouplingEntries, Forms, csr_pointers, split_cell_integrals
 from .facet_jacobian import ContactFacets
 
 __all__ = ["PairCoupling"]
@@ -80,16 +81,20 @@ class PairCoupling:
         self.pairs, self.w = list(pairs), w
         self._G = [fem.form(G) for G in partner_residuals]
         self._terms = []  # per pair: the derivative forms, their matrices, the products
-        self._derivatives = []  # per pair: the UFL derivative forms
+        self._derivatives = []  # per pair: the derivative forms on all of its facets
         self._facets = []  # per pair: the facets its forms are assembled on
         for pair, G in zip(self.pairs, partner_residuals):
             w_partner = pair.partners[w]
             derivatives = [ufl.derivative(F, w_partner, trial), ufl.derivative(G, w_partner, trial)]
             if not symmetric:
                 derivatives.append(ufl.derivative(G, w, trial))
-            forms = [fem.form(derivative) for derivative in derivatives]
+            # (facet integrals only: compiled once, then on other facets without compiling)
+            everywhere = [
+                Forms(split_cell_integrals(expand_derivatives(d))[1]) for d in derivatives
+            ]
+            forms = [form.form for form in everywhere]
             self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
-            self._derivatives.append(derivatives)
+            self._derivatives.append(everywhere)
             self._facets.append(ContactFacets.of_measure(V.mesh, pair.ds))
         self._transposes = [None] * len(self.pairs)
         self._generations = [pair.pairing.generation for pair in self.pairs]
@@ -157,10 +162,10 @@ class PairCoupling:
             matrix.assemble()
 
     def _restrict(self, active_cells: np.ndarray) -> None:
-        """Compile each pair's derivative forms again on the facets of its
-        :class:`.ContactFacets` when the contact has reached beyond them or left most of
-        them, with matrices and products on their sparsity (collective: every rank
-        compiles when any rank's facets change)."""
+        """Take each pair's derivative forms on the facets of its :class:`.ContactFacets`
+        (their compiled kernels: no compilation) when the contact has reached beyond them
+        or left most of them, with matrices and products on their sparsity (collective:
+        every rank makes them when any rank's facets change)."""
         changes = [facets.update(active_cells) for facets in self._facets]
         flags = self._comm.allreduce(np.array(changes, dtype=int), op=MPI.SUM)
         for index, (facets, flag) in enumerate(zip(self._facets, flags)):
@@ -168,7 +173,9 @@ class PairCoupling:
                 self._drop_products(index)
                 for matrix in self._terms[index][1]:
                     matrix.destroy()
-                forms = [fem.form(facets.restrict(d)) for d in self._derivatives[index]]
+                forms = [
+                    facets.compiled_on(d, facets.current).form for d in self._derivatives[index]
+                ]
                 matrices = [fem_petsc.create_matrix(form) for form in forms]
                 self._terms[index] = (forms, matrices, None)
 
