@@ -327,19 +327,22 @@ class AffineSystem(_Base):
         if self._at_zero is not None:
             self._at_zero.update()
         self._constants_key = self._key()
-        self.update_pairs()
+        self.update_pairs(everywhere=True)
 
-    def update_pairs(self) -> None:
+    def update_pairs(self, everywhere: bool = False) -> None:
         """K_bc = K_static + K_pairs for the current pairings of the contact pairs (only
         K_pairs, their affine facet terms, is assembled again; without pairs, K_bc is
-        K_static)."""
+        K_static). Unless K_static changed too (``everywhere``), the next Jacobian is set
+        again on K_pairs' rows only (with those where B changed)."""
+        rows = None
         if self.K_pairs is not None:
             self.K_pairs.zeroEntries()
             self._J_pairs.assemble_matrix(self.K_pairs, self.bcs, 0.0)
             self.K_pairs.assemble()
             self.K_static.copy(self.K_bc, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
             self.K_bc.axpy(1.0, self.K_pairs, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        self.sum.constant_changed()
+            rows = np.flatnonzero(np.diff(self.K_pairs.getValuesCSR()[0]) > 0)
+        self.sum.constant_changed(None if everywhere else rows)
         self._pairings_key = self._pairings()
 
     def _key(self) -> tuple:
