@@ -8,11 +8,11 @@ With w~ = T w the partner of the unknown, the Jacobian of a pair is
 
 dF/dw is a facet term like a rigid obstacle's; the other three, the coupling, join the
 dofs of the two bodies. They vanish at every quadrature point out of contact, so that the
-sparsity of the Jacobian holds only the coupling of the pairs that have been in contact:
-it grows with the contact set (the solver is told, and factorises anew) and never holds
-the pairs that never touched. With the whole surfaces coupled, the factorisation of two
-P2 balls cost 2.5 times the flops of one ball of as many DOFs; with the pairs in contact,
-0.46 times (docs/method.md section 11).
+sparsity of the Jacobian holds only the coupling of the pairs that have been in contact
+(or next to it): it grows with the contact set (the solver is told, and factorises anew)
+and never holds the pairs that never touched. With the whole surfaces coupled, the
+factorisation of two P2 balls cost 2.5 times the flops of one ball of as many DOFs; with
+the pairs in contact, 0.46 times (docs/method.md section 11).
 """
 
 from __future__ import annotations
@@ -59,8 +59,10 @@ class PairCoupling:
     surfaces have slid) makes the products again. The entries of the products are summed
     at each Jacobian, a symmetric coupling's transpose sent by one exchange between the
     ranks (:class:`_Transpose`). The nonzero coupling terms are added to the Jacobian,
-    whose sparsity holds every entry they have had: :attr:`growth` names the entries it
-    lacks.
+    whose sparsity holds every entry they have had: when it lacks some, :attr:`growth`
+    names every entry of the products it lacks, zero or not (those of the facets next to
+    the contact too, so that the contact spreading onto them, within the step or the
+    next ones, needs no new sparsity and no new symbolic factorisation).
 
     Args:
         pairs: The :class:`~nitsche_dolfinx.pairs.PairContact` halves of the problem.
@@ -110,6 +112,7 @@ class PairCoupling:
         self._bc_columns = np.concatenate(self._comm.allgather(self._bc_rows))
         self._held = np.zeros(0, dtype=np.int64)  # the entries the Jacobian holds (keys)
         self._active = None  # the last coupling: its nonzero entries (keys), their values
+        self._structural = np.zeros(0, dtype=np.int64)  # all its entries (keys), zero or not
         #: The coupling entries of the last Jacobian that the sparsity of the Jacobian
         #: lacked (None: none); the solver widens its matrices by them.
         self.growth: CouplingEntries | None = None
@@ -246,6 +249,7 @@ class PairCoupling:
         rows, columns = every // self._width, every % self._width
         free = ~(np.isin(rows, self._bc_rows) | np.isin(columns, self._bc_columns))
         nonzero = (summed != 0.0) & free
+        self._structural = every[free]  # (the pattern the Jacobian grows by)
         return every[nonzero], summed[nonzero]
 
     def jacobian_changed(
@@ -264,6 +268,8 @@ class PairCoupling:
         self._active = active
         self.growth = None
         if grows:
+            if len(new):  # every entry of the products, not only the nonzero ones
+                new = np.setdiff1d(self._structural, self._held, assume_unique=True)
             self._held = np.union1d(self._held, new)
             self.growth = self._entries_of(new)
             self.entries = self._entries_of(self._held)
