@@ -13,7 +13,6 @@ from __future__ import annotations
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -94,21 +93,6 @@ class ContactFacets:
             self.current = wanted
             return True
         return False
-
-    def restrict(self, form: ufl.Form) -> ufl.Form:
-        """``form`` with its exterior facet integrals over the current facets only (the
-        same integrands: FFCx finds the compiled form in its cache)."""
-        dim = self._mesh.topology.dim - 1
-        tags = dmesh.meshtags(
-            self._mesh, dim, self.facets[self.current], self._values[self.current]
-        )
-        integrals = [
-            integral.reconstruct(subdomain_data=tags)
-            if integral.integral_type() == "exterior_facet"
-            else integral
-            for integral in form.integrals()
-        ]
-        return ufl.Form(integrals)
 
     def compiled_on(self, forms: Forms, chosen: np.ndarray) -> Forms:
         """``forms``, compiled on all the facets, on the facets ``chosen`` (a mask, such as

@@ -14,6 +14,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from .assembly import CouplingEntries, csr_pointers
+from .collective import any_rank
 
 __all__ = ["SUM_IN_FULL_BELOW", "JacobianSum", "pattern_matrix"]
 
@@ -78,12 +79,25 @@ class JacobianSum:
         self._K_rows = None  # K_bc's rows where B (or the reset entries) can have entries
         self._B_rows = None  # those rows, local
         self._B_in_K = None  # (B's generation, the place of each of its entries there)
+        self._renewed = np.zeros(0, dtype=np.int64)  # rows where K_bc changed since that sum
         nonzeros = K_bc.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]
         self._in_full = nonzeros < SUM_IN_FULL_BELOW  # the same on every rank
 
-    def constant_changed(self) -> None:
-        """K_bc was assembled again: the next sum is in full, its rows read again."""
-        self._summed_into, self._K_rows = None, None
+    def constant_changed(self, rows: np.ndarray | None = None) -> None:
+        """K_bc was assembled again: the next sum is in full, its rows read again. Given
+        the local ``rows`` out of which K_bc did not change (the rows of a contact pair's
+        affine facet terms), the next sum sets them again with the rows where B changed,
+        if they are rows where B can have entries on every rank (else in full;
+        collective)."""
+        self._K_rows = None
+        partial = rows is not None and self.facet is not None
+        if partial:
+            outside = not np.isin(rows, self.facet.facet_rows).all()
+            partial = not any_rank(self.K_bc.getComm().tompi4py(), outside)
+        if partial:
+            self._renewed = np.union1d(self._renewed, rows)
+        else:
+            self._summed_into = None
 
     def sum_into(self, A: PETSc.Mat, reset: CouplingEntries | None = None) -> None:
         """A = K_bc + B: in full the first time after :meth:`constant_changed` (and always
@@ -98,6 +112,7 @@ class JacobianSum:
             return
         if self._in_full or self._summed_into != A.handle:  # (A: wrapped anew each callback)
             self._stale = np.zeros(0, dtype=np.int64)
+            self._renewed = np.zeros(0, dtype=np.int64)
             if self.widened:  # A has entries beyond K_bc's: zero there
                 A.zeroEntries()
                 A.axpy(1.0, self.K_bc, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
@@ -111,9 +126,11 @@ class JacobianSum:
             zeros = np.zeros(len(reset.columns))
             A.setValuesIJV(reset.indptr, reset.columns, zeros, PETSc.InsertMode.INSERT,
                            reset.rows)  # fmt: skip
-        self._rows_set_again(A, self._changed_rows(reset), reset)
+        changed = np.union1d(self._changed_rows(reset), self._renewed)
+        self._rows_set_again(A, changed, reset)
         self._in_A = (facet.generation, facet.entry_rows, facet.values)
         self._stale = np.zeros(0, dtype=np.int64)
+        self._renewed = np.zeros(0, dtype=np.int64)
 
     def _changed_rows(self, reset: CouplingEntries | None) -> np.ndarray:
         """The local rows where A must be set again: where B's values differ from those in

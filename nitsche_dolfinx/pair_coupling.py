@@ -8,11 +8,11 @@ With w~ = T w the partner of the unknown, the Jacobian of a pair is
 
 dF/dw is a facet term like a rigid obstacle's; the other three, the coupling, join the
 dofs of the two bodies. They vanish at every quadrature point out of contact, so that the
-sparsity of the Jacobian holds only the coupling of the pairs that have been in contact:
-it grows with the contact set (the solver is told, and factorises anew) and never holds
-the pairs that never touched. With the whole surfaces coupled, the factorisation of two
-P2 balls cost 2.5 times the flops of one ball of as many DOFs; with the pairs in contact,
-0.46 times (docs/method.md section 11).
+sparsity of the Jacobian holds only the coupling of the pairs that have been in contact
+(or next to it): it grows with the contact set (the solver is told, and factorises anew)
+and never holds the pairs that never touched. With the whole surfaces coupled, the
+factorisation of two P2 balls cost 2.5 times the flops of one ball of as many DOFs; with
+the pairs in contact, 0.46 times (docs/method.md section 11).
 """
 
 from __future__ import annotations
@@ -23,9 +23,10 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
+from ufl.algorithms import expand_derivatives
 
 from . import compat
-from .assembly import CouplingEntries, csr_pointers
+from .assembly import CouplingEntries, Forms, csr_pointers, split_cell_integrals
 from .facet_jacobian import ContactFacets
 
 __all__ = ["PairCoupling"]
@@ -58,8 +59,10 @@ class PairCoupling:
     surfaces have slid) makes the products again. The entries of the products are summed
     at each Jacobian, a symmetric coupling's transpose sent by one exchange between the
     ranks (:class:`_Transpose`). The nonzero coupling terms are added to the Jacobian,
-    whose sparsity holds every entry they have had: :attr:`growth` names the entries it
-    lacks.
+    whose sparsity holds every entry they have had: when it lacks some, :attr:`growth`
+    names every entry of the products it lacks, zero or not (those of the facets next to
+    the contact too, so that the contact spreading onto them, within the step or the
+    next ones, needs no new sparsity and no new symbolic factorisation).
 
     Args:
         pairs: The :class:`~nitsche_dolfinx.pairs.PairContact` halves of the problem.
@@ -80,16 +83,20 @@ class PairCoupling:
         self.pairs, self.w = list(pairs), w
         self._G = [fem.form(G) for G in partner_residuals]
         self._terms = []  # per pair: the derivative forms, their matrices, the products
-        self._derivatives = []  # per pair: the UFL derivative forms
+        self._derivatives = []  # per pair: the derivative forms on all of its facets
         self._facets = []  # per pair: the facets its forms are assembled on
         for pair, G in zip(self.pairs, partner_residuals):
             w_partner = pair.partners[w]
             derivatives = [ufl.derivative(F, w_partner, trial), ufl.derivative(G, w_partner, trial)]
             if not symmetric:
                 derivatives.append(ufl.derivative(G, w, trial))
-            forms = [fem.form(derivative) for derivative in derivatives]
+            # (facet integrals only: compiled once, then on other facets without compiling)
+            everywhere = [
+                Forms(split_cell_integrals(expand_derivatives(d))[1]) for d in derivatives
+            ]
+            forms = [form.form for form in everywhere]
             self._terms.append((forms, [fem_petsc.create_matrix(form) for form in forms], None))
-            self._derivatives.append(derivatives)
+            self._derivatives.append(everywhere)
             self._facets.append(ContactFacets.of_measure(V.mesh, pair.ds))
         self._transposes = [None] * len(self.pairs)
         self._generations = [pair.pairing.generation for pair in self.pairs]
@@ -105,6 +112,7 @@ class PairCoupling:
         self._bc_columns = np.concatenate(self._comm.allgather(self._bc_rows))
         self._held = np.zeros(0, dtype=np.int64)  # the entries the Jacobian holds (keys)
         self._active = None  # the last coupling: its nonzero entries (keys), their values
+        self._structural = np.zeros(0, dtype=np.int64)  # all its entries (keys), zero or not
         #: The coupling entries of the last Jacobian that the sparsity of the Jacobian
         #: lacked (None: none); the solver widens its matrices by them.
         self.growth: CouplingEntries | None = None
@@ -116,6 +124,11 @@ class PairCoupling:
         """The generation of each pair's pairing: a new one changes the pair's normal, and
         with it the affine facet terms of the constant Jacobian."""
         return tuple(pair.pairing.generation for pair in self.pairs)
+
+    def pairing_functions(self) -> set:
+        """The Functions a new pairing changes and forms hold: each pair's normal and gap
+        vector."""
+        return {f for pair in self.pairs for f in (pair.pairing.normal, pair.pairing.gap_vector)}
 
     def update(self, x: PETSc.Vec | None = None) -> None:
         """The partner of the iterate ``x`` (before each residual); without ``x``, the
@@ -152,10 +165,10 @@ class PairCoupling:
             matrix.assemble()
 
     def _restrict(self, active_cells: np.ndarray) -> None:
-        """Compile each pair's derivative forms again on the facets of its
-        :class:`.ContactFacets` when the contact has reached beyond them or left most of
-        them, with matrices and products on their sparsity (collective: every rank
-        compiles when any rank's facets change)."""
+        """Take each pair's derivative forms on the facets of its :class:`.ContactFacets`
+        (their compiled kernels: no compilation) when the contact has reached beyond them
+        or left most of them, with matrices and products on their sparsity (collective:
+        every rank makes them when any rank's facets change)."""
         changes = [facets.update(active_cells) for facets in self._facets]
         flags = self._comm.allreduce(np.array(changes, dtype=int), op=MPI.SUM)
         for index, (facets, flag) in enumerate(zip(self._facets, flags)):
@@ -163,7 +176,9 @@ class PairCoupling:
                 self._drop_products(index)
                 for matrix in self._terms[index][1]:
                     matrix.destroy()
-                forms = [fem.form(facets.restrict(d)) for d in self._derivatives[index]]
+                forms = [
+                    facets.compiled_on(d, facets.current).form for d in self._derivatives[index]
+                ]
                 matrices = [fem_petsc.create_matrix(form) for form in forms]
                 self._terms[index] = (forms, matrices, None)
 
@@ -234,6 +249,7 @@ class PairCoupling:
         rows, columns = every // self._width, every % self._width
         free = ~(np.isin(rows, self._bc_rows) | np.isin(columns, self._bc_columns))
         nonzero = (summed != 0.0) & free
+        self._structural = every[free]  # (the pattern the Jacobian grows by)
         return every[nonzero], summed[nonzero]
 
     def jacobian_changed(
@@ -252,6 +268,8 @@ class PairCoupling:
         self._active = active
         self.growth = None
         if grows:
+            if len(new):  # every entry of the products, not only the nonzero ones
+                new = np.setdiff1d(self._structural, self._held, assume_unique=True)
             self._held = np.union1d(self._held, new)
             self.growth = self._entries_of(new)
             self.entries = self._entries_of(self._held)

@@ -53,6 +53,8 @@ REPAIR_SLIP = 0.03
 _NEWTON_STEPS = 12  # Newton steps of a closest-point projection onto a curved facet
 _HALVINGS = 8  # halvings of a Newton step that does not bring the point nearer
 _XI_TOLERANCE = 1e-13  # a Newton step below this (in facet coordinates) ends the projection
+_LAST_STEP = 1e-8  # a Newton step below this is the last: the next would be round-off
+_SMALL_STEP = 1e-6  # a Newton step below this is taken without comparing distances
 _CANDIDATES = 6  # facets of Gamma_2 (nearest centroids) tried for each slave node
 _SELF_CANDIDATES = 48  # for self-contact: the nearest ones are the node's own neighbours
 _FACING = 0.5  # self-contact: a normal faces a node's own if n . n_own < -_FACING
@@ -80,17 +82,19 @@ def _lowest_rank(comm, candidate: np.ndarray) -> np.ndarray:
     return lowest
 
 
+def _definite(m: np.ndarray) -> np.ndarray:
+    """Whether each of a stack of 1x1 or 2x2 symmetric matrices is positive definite."""
+    if m.shape[1] == 1:
+        return m[:, 0, 0] > 0
+    return (m[:, 0, 0] > 0) & (m[:, 0, 0] * m[:, 1, 1] - m[:, 0, 1] * m[:, 1, 0] > 0)
+
+
 def _solve_small(matrix: np.ndarray, fallback: np.ndarray, right: np.ndarray) -> np.ndarray:
     """matrix^-1 right for a stack of 1x1 or 2x2 systems, the ``fallback`` matrices where
     ``matrix`` is not positive definite; a singular one (a line along a facet) gets a
     little of its own scale on its diagonal."""
 
-    def definite(m):
-        if m.shape[1] == 1:
-            return m[:, 0, 0] > 0
-        return (m[:, 0, 0] > 0) & (m[:, 0, 0] * m[:, 1, 1] - m[:, 0, 1] * m[:, 1, 0] > 0)
-
-    chosen = np.where(definite(matrix)[:, None, None], matrix, fallback)
+    chosen = np.where(_definite(matrix)[:, None, None], matrix, fallback)
     trace = np.trace(chosen, axis1=1, axis2=2)
     chosen = chosen + (1e-12 * np.abs(trace) + 1e-300)[:, None, None] * np.eye(matrix.shape[1])
     if matrix.shape[1] == 1:
@@ -134,6 +138,14 @@ class _MasterSurface:
         facet_vertices = basix.topology(cell_type)[fdim]
         self.geometry_element = _lagrange(cell_type, compat.geometry_degree(mesh))
         self.element = _lagrange(cell_type, compat.element_degree(V))
+        # the same element of degree 1 or 2 (nodes in one order): a displaced point is one
+        # sum over the displaced nodes
+        self._one_element = compat.geometry_degree(mesh) == compat.element_degree(V) <= 2
+        # the second derivatives of the basis functions in the order (i, j) of d2/dXi dXj
+        unit = np.eye(tdim, dtype=int)
+        self._second = np.array(
+            [[basix.index(*(unit[i] + unit[j])) for j in range(tdim)] for i in range(tdim)]
+        )
         cells, origins, edges = [], [], []
         self._locals = []  # each facet's index among its cell's facets
         for facet in facets:
@@ -153,7 +165,7 @@ class _MasterSurface:
         self.nodes = mesh.geometry.x[:, : self.gdim][compat.geometry_dofmap(mesh)[self.cells]]
         self.dofs = compat.dofmap_array(V)[self.cells]  # (facets, dofs of a cell), blocked
         self.bs = V.dofmap.index_map_bs
-        self.shift = None
+        self.shift, self._displaced = None, None
         # the size of each facet: its longest edge (its length in 1D: none, 1)
         corners = [self.points(np.arange(count), corner)[0] for corner in self._corners(fdim)]
         self.size = np.ones(count)
@@ -171,9 +183,11 @@ class _MasterSurface:
     def move(self, u: np.ndarray | None) -> None:
         """Follow the surface displaced by ``u`` (the local values of a Function of the
         displacement space, ghosts included; None: the reference configuration)."""
-        self.shift = None
+        self.shift, self._displaced = None, None
         if u is not None:
             self.shift = u.reshape(-1, self.bs)[self.dofs][..., : self.gdim]
+            if self._one_element:
+                self._displaced = self.nodes + self.shift
         fdim = self.edges.shape[2]
         middle = np.full((len(self.cells), fdim), 1.0 / (fdim + 1))
         self.centroids = self.points(np.arange(len(self.cells)), middle)[0]
@@ -197,7 +211,9 @@ class _MasterSurface:
         X = self.reference_point(facet, xi)
         order = 2 if second else 1
         sources = [(self.geometry_element, self.nodes[facet])]
-        if displaced and self.shift is not None:
+        if displaced and self._displaced is not None:
+            sources = [(self.geometry_element, self._displaced[facet])]
+        elif displaced and self.shift is not None:
             sources.append((self.element, self.shift[facet]))
         x, jacobian, hessian = 0.0, 0.0, 0.0
         for element, values in sources:
@@ -205,9 +221,7 @@ class _MasterSurface:
             x = x + np.einsum("nk,nkd->nd", table[0], values)
             jacobian = jacobian + np.einsum("jnk,nkd->ndj", table[1 : 1 + tdim], values)
             if second:
-                index = [[basix.index(*np.eye(tdim, dtype=int)[[i, j]].sum(axis=0))
-                          for j in range(tdim)] for i in range(tdim)]  # fmt: skip
-                hessian = hessian + np.einsum("ijnk,nkd->ndij", table[np.array(index)], values)
+                hessian = hessian + np.einsum("ijnk,nkd->ndij", table[self._second], values)
         tangent = np.einsum("ndj,njf->ndf", jacobian, edges)
         if not second:
             return x, tangent
@@ -409,6 +423,13 @@ class _MasterSurface:
             gauss_newton = np.einsum("ndf,dg->nfg", t, across) @ t
             hessian = gauss_newton + np.einsum("nd,ndfg->nfg", offset, curvature[active])
             step = -_solve_small(hessian, gauss_newton, gradient)
+            # a small Newton step (on a positive definite Hessian: near the closest point,
+            # where Newton converges quadratically) is taken as it is: the change of the
+            # distance it makes is round-off, and would halve it for nothing; below
+            # _LAST_STEP the next would be below round-off, and it is the last
+            size = np.abs(step).max(axis=1)
+            sure = _definite(hessian) & (size < _SMALL_STEP)
+            last = sure & (size < _LAST_STEP)
             before = xi[active]
             distance = np.einsum("nd,nd->n", offset, offset)
             trying, scale = active, np.ones(len(active))
@@ -418,6 +439,7 @@ class _MasterSurface:
                 new = self.points(facet[trying], trial, second=True)
                 new_offset = (new[0] - targets[trying]) @ across
                 nearer = np.einsum("nd,nd->n", new_offset, new_offset) <= distance[position]
+                nearer |= sure[position]
                 taken = trying[nearer]
                 xi[taken] = trial[nearer]
                 x[taken], tangent[taken], curvature[taken] = (part[nearer] for part in new)
@@ -426,7 +448,7 @@ class _MasterSurface:
                     break
                 scale[position] /= 2
             moved = np.abs(xi[active] - before).max(axis=1)  # (a point kept at an edge: 0)
-            active = active[moved >= _XI_TOLERANCE]
+            active = active[(moved >= _XI_TOLERANCE) & ~last]
         return xi, x
 
     def _outer_normal(self, facet: np.ndarray, xi: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import ufl
 from petsc4py import PETSc
-from ufl.algorithms import expand_derivatives
+from ufl.algorithms import expand_derivatives, extract_coefficients
 
 from . import compat
 from .assembly import (
@@ -215,6 +215,20 @@ def _derivative(form: ufl.Form, unknown, trial, degrees: dict) -> ufl.Form:
     return with_facet_quadrature(expand_derivatives(ufl.derivative(form, unknown, trial)), degrees)
 
 
+def _split_pairing_terms(form: ufl.Form, coupling) -> tuple[ufl.Form | None, ufl.Form | None]:
+    """The integrals of ``form`` that hold no Function of a contact pair's pairing (its
+    normal, its gap vector) and those that do (None if none); all in the first without
+    ``coupling``."""
+    if coupling is None:
+        return form, None
+    pairing = coupling.pairing_functions()
+    fixed, paired = [], []
+    for integral in form.integrals():
+        held = set(extract_coefficients(integral.integrand()))
+        (paired if held & pairing else fixed).append(integral)
+    return (ufl.Form(fixed) if fixed else None), (ufl.Form(paired) if paired else None)
+
+
 class AffineSystem(_Base):
     """F(x) = K x + F_cell(0) + F_facet(x) with the Jacobian J = K_bc + B (docs/method.md
     section 8): ``K`` the constant Jacobian of the cell terms (``K_bc`` with the Dirichlet
@@ -238,6 +252,7 @@ class AffineSystem(_Base):
         self.F_cell = Forms(F_cell)
         self.F_facet = Forms(F_facet) if F_facet is not None else None
         self._J_cell = self._J_constant = Forms(J_cell)  # the constant terms of J: K_bc's
+        self._J_pairs = None  # those of them that a new pairing changes (contact pairs)
         constant, degrees, facets = J_cell, None, None
         if forms.facet_parts is not None and J_facet is not None and forms.activity is not None:
             degrees = facet_quadrature_degrees(J_facet)
@@ -245,18 +260,31 @@ class AffineSystem(_Base):
             affine, force = (_derivative(part, u, trial, degrees) for part in forms.facet_parts)
             if not affine.empty():
                 constant = J_cell + affine
-                self._J_constant = Forms(constant)
+                fixed, paired = _split_pairing_terms(affine, forms.coupling)
+                self._J_constant = Forms(J_cell + fixed if fixed is not None else J_cell)
+                if paired is not None:
+                    self._J_pairs = Forms(paired)
             facets = ContactFacets.of_form(u.function_space.mesh, force)
             J_facet = force
         self._constants = constant.constants()  # those of K_bc: see constants_changed
         self._constants_key = None
+        self._pairings_key = None
         # K_bc on the whole sparsity of J: PETSc keeps only the entries assembled into
         # a new matrix, so J is assembled once to set them (and zeroed by update_K)
         self.K_bc = self.J_forms.create_matrix(matrix_type)
         self.J_forms.assemble_matrix(self.K_bc)
         self.K_bc.assemble()
+        # with contact pairs, K_bc = K_static + K_pairs: a new pairing assembles K_pairs,
+        # the pairs' affine facet terms (they hold the pairs' normals), and adds it to
+        # K_static, the rest of K_bc, assembled only when a constant changes
+        self.K_static, self.K_pairs = self.K_bc, None
+        if self._J_pairs is not None:
+            self.K_static = self.K_bc.duplicate()
+            self.K_pairs = self._J_pairs.create_matrix(matrix_type)
+            # (the Dirichlet rows' zero diagonal, which its sparsity may lack)
+            self.K_pairs.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         # without Dirichlet conditions or facet terms in K_bc, K is K_bc: one matrix less
-        separate = self.bcs or self._J_constant is not self._J_cell
+        separate = self.bcs or constant is not J_cell
         self.K = self._J_cell.create_matrix(matrix_type) if separate else self.K_bc
         self.facet = None
         if J_facet is not None:
@@ -286,7 +314,7 @@ class AffineSystem(_Base):
         """Assemble K and K_bc for the current coefficients (the constant terms: again only
         when a constant in them changes, such as the time step)."""
         self._refresh_diagonal()
-        pairs = [(self.K_bc, self._J_constant, self.bcs, self._D_bc)]
+        pairs = [(self.K_static, self._J_constant, self.bcs, self._D_bc)]
         if self.K is not self.K_bc:
             pairs.append((self.K, self._J_cell, [], self._D))
         for matrix, forms, bcs, D in pairs:
@@ -298,20 +326,39 @@ class AffineSystem(_Base):
                 matrix.assemble()
         if self._at_zero is not None:
             self._at_zero.update()
-        self.sum.constant_changed()
         self._constants_key = self._key()
+        self.update_pairs(everywhere=True)
+
+    def update_pairs(self, everywhere: bool = False) -> None:
+        """K_bc = K_static + K_pairs for the current pairings of the contact pairs (only
+        K_pairs, their affine facet terms, is assembled again; without pairs, K_bc is
+        K_static). Unless K_static changed too (``everywhere``), the next Jacobian is set
+        again on K_pairs' rows only (with those where B changed)."""
+        rows = None
+        if self.K_pairs is not None:
+            self.K_pairs.zeroEntries()
+            self._J_pairs.assemble_matrix(self.K_pairs, self.bcs, 0.0)
+            self.K_pairs.assemble()
+            self.K_static.copy(self.K_bc, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            self.K_bc.axpy(1.0, self.K_pairs, PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            rows = np.flatnonzero(np.diff(self.K_pairs.getValuesCSR()[0]) > 0)
+        self.sum.constant_changed(None if everywhere else rows)
+        self._pairings_key = self._pairings()
 
     def _key(self) -> tuple:
         key = tuple(np.asarray(constant.value).tobytes() for constant in self._constants)
-        if self.coupling is not None:  # the pairs' affine facet terms hold their normals
-            key = (*key, *self.coupling.pairings())
         return key if self._damped is None else (*key, *self._damped.key())
+
+    def _pairings(self) -> tuple:
+        """The pairings of the contact pairs: a new one changes the pair's normal, and with
+        it the pairs' affine facet terms in K_bc."""
+        return () if self.coupling is None else self.coupling.pairings()
 
     def constants_changed(self) -> bool:
         """Whether a constant of K_bc (the time step, gamma0, Theta, a material constant)
         or the pairing of a contact pair has another value than at the last
-        :meth:`update_K`."""
-        return self._key() != self._constants_key
+        :meth:`update_K` or :meth:`update_pairs`."""
+        return self._key() != self._constants_key or self._pairings() != self._pairings_key
 
     @property
     def facet_terms_active(self) -> bool:
@@ -328,8 +375,12 @@ class AffineSystem(_Base):
 
     def update_constant_terms(self) -> None:
         """Assemble again the constant Jacobian after a constant in it changed (the time
-        step); the next Jacobian is then summed and factorised anew."""
-        self.update_K()
+        step), or only its pairs' part after a new pairing; the next Jacobian is then
+        summed and factorised anew."""
+        if self._key() != self._constants_key:
+            self.update_K()
+        else:
+            self.update_pairs()
         self.forget_jacobian()
 
     def forget_jacobian(self) -> None:
@@ -417,6 +468,8 @@ class AffineSystem(_Base):
 
     def petsc_objects(self) -> list:
         objects = [self.K_bc, self.F0, self._Kx]
+        if self.K_pairs is not None:
+            objects += [self.K_static, self.K_pairs]
         if self.K is not self.K_bc:
             objects.append(self.K)
         if self.facet is not None:
