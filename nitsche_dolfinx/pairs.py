@@ -82,6 +82,20 @@ def _lowest_rank(comm, candidate: np.ndarray) -> np.ndarray:
     return lowest
 
 
+def _on_edge(xi: np.ndarray) -> np.ndarray:
+    """Whether each point xi of a facet is on its edge or vertex (clamped there)."""
+    return (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
+
+
+def _places(nodes: np.ndarray, wanted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each of ``wanted`` is in ``nodes`` (global indices, each once), and which of
+    them are there at all."""
+    order = np.argsort(nodes)
+    place = np.minimum(np.searchsorted(nodes[order], wanted), len(nodes) - 1)
+    found = nodes[order][place] == wanted
+    return order[place], found
+
+
 def _definite(m: np.ndarray) -> np.ndarray:
     """Whether each of a stack of 1x1 or 2x2 symmetric matrices is positive definite."""
     if m.shape[1] == 1:
@@ -284,7 +298,7 @@ class _MasterSurface:
             length += 1e-9 * np.abs(offset @ direction)
         if facing is not None:
             per_point = candidates.shape[1]
-            own = [np.repeat(part, per_point, axis=0) for part in facing]
+            own = [np.repeat(part, per_point, axis=0) for part in facing[:2]]
             length[~self._facing(tried, xi_tried, x, targets, *own)] = np.inf
         best = np.argmin(length.reshape(candidates.shape), axis=1)  # the first on a tie
         chosen = np.arange(len(points)) * candidates.shape[1] + best
@@ -304,10 +318,8 @@ class _MasterSurface:
         if not len(self.cells) or not len(nodes):
             return normal, size
         facet, xi, node = self._facet_nodes()
-        order = np.argsort(nodes)
-        place = np.minimum(np.searchsorted(nodes[order], node.ravel()), len(nodes) - 1)
-        found = nodes[order][place] == node.ravel()
-        place = order[place[found]]
+        place, found = _places(nodes, node.ravel())
+        place = place[found]
         facet = np.repeat(facet, node.shape[1])[found]
         xi = xi.reshape(-1, xi.shape[-1])[found]
         at = self.points(facet, xi)[0]
@@ -334,7 +346,7 @@ class _MasterSurface:
             )
         return self._nodes_of_facets
 
-    def _facing(self, facet, xi, x, points, outward, node, size) -> np.ndarray:
+    def _facing(self, facet, xi, x, points, outward, node) -> np.ndarray:
         """Self-contact: whether the point x of each facet is a partner for its point,
         the node ``node`` whose own outer normal is ``outward``: the facet faces it
         (their normals more than opposite: n . n_own < -1/2), x is in front of it (less
@@ -360,7 +372,7 @@ class _MasterSurface:
         facet's normal, the plane going on past the edge; where it turns, outside or
         inside by the surface's normal at the facet's node nearest to the closest point."""
         own = self._outer_normal(facet, xi, partner)
-        on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
+        on_edge = _on_edge(xi)
         line = partner - points
         length = np.linalg.norm(line, axis=1)
         side, turns = own, on_edge
@@ -383,8 +395,7 @@ class _MasterSurface:
         outward, nodes = sides
         _, node_xi, node_ids = self._facet_nodes()
         nearest = np.argmin(np.linalg.norm(node_xi[facet] - xi[:, None], axis=2), axis=1)
-        order = np.argsort(nodes)
-        surface = outward[order[np.searchsorted(nodes[order], node_ids[facet, nearest])]]
+        surface = outward[_places(nodes, node_ids[facet, nearest])[0]]
         return np.einsum("nd,nd->n", surface, own) < 1.0 - _FLAT, surface
 
     def beyond_end(self, facet, xi, points, sides) -> np.ndarray:
@@ -396,7 +407,7 @@ class _MasterSurface:
             return np.zeros(0, dtype=bool)
         partner = self.points(facet, xi)[0]
         own = self._outer_normal(facet, xi, partner)
-        on_edge = (np.min(xi, axis=1, initial=1.0) <= 0.0) | (xi.sum(axis=1) >= 1.0)
+        on_edge = _on_edge(xi)
         turns = self._surface_turns(facet, xi, own, sides)[0]
         offset = points - partner
         along = offset - np.einsum("nd,nd->n", offset, own)[:, None] * own
