@@ -148,9 +148,10 @@ def _material(config: dict, source: str) -> Material | dict:
 def _material_of(values: dict) -> Material:
     """The material of a table of [material]'s keys (E and nu, or lmbda and mu; rho)."""
     rho = values.get("rho", SCHEMA["material"].keys["rho"].default)
+    law = values.get("law", SCHEMA["material"].keys["law"].default)
     if "E" in values:
-        return Material(E=values["E"], nu=values["nu"], rho=rho)
-    return Material.from_lame(values["lmbda"], values["mu"], rho=rho)
+        return Material(E=values["E"], nu=values["nu"], rho=rho, law=law)
+    return Material.from_lame(values["lmbda"], values["mu"], rho=rho, law=law)
 
 
 def _obstacles(config: dict, source: str) -> list:

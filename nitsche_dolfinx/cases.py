@@ -231,6 +231,7 @@ def impact_problem(
     mesh: tuple | None = None,
     method: str = "nitsche",
     mass: str = "consistent",
+    law: str = "linear",
 ) -> ContactProblem:
     """The impact test of the talk: the ball (``dim=3``) or the disk (``dim=2``, plane strain).
 
@@ -243,7 +244,8 @@ def impact_problem(
     velocity along x: the body is thrown obliquely. ``mesh``: ``(mesh, facet_tags)`` of
     another body to drop (a part of the disk or ball, say), Gamma_C tagged
     ``DISK_CONTACT`` or ``BALL_CONTACT``; ``mesh_size`` and ``geometry_order`` are then
-    unused. ``method`` and ``mass``: those of :class:`ContactProblem`.
+    unused. ``method`` and ``mass``: those of :class:`ContactProblem`; ``law``: the
+    material's (:class:`~nitsche_dolfinx.material.Material`), hyperelastic at finite strains.
     """
     if dim not in (2, 3):
         raise ValueError(f"the impact test is 2D (disk) or 3D (ball), got dim={dim!r}")
@@ -254,7 +256,7 @@ def impact_problem(
     problem = ContactProblem(
         mesh,
         tags,
-        Material.from_lame(20.0, 20.0, rho=1.0),
+        Material.from_lame(20.0, 20.0, rho=1.0, law=law),
         degree=degree,
         gamma0=gamma0,
         nitsche_theta=nitsche_theta,

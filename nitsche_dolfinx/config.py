@@ -57,6 +57,7 @@ import os
 
 from .history import (
     DAMPING_COLUMNS,
+    FINITE_COLUMNS,
     FRICTION_HISTORY_COLUMNS,
     HISTORY_COLUMNS,
     OBSTACLE_COLUMNS,
@@ -425,6 +426,7 @@ def history_columns(config: dict, simulation) -> list[str]:
     base = FRICTION_HISTORY_COLUMNS if simulation.problem.frictional else HISTORY_COLUMNS
     problem = simulation.problem
     work = OBSTACLE_COLUMNS if problem.moving_contacts else ()
+    finite = FINITE_COLUMNS if problem.finite else ()
     damping = DAMPING_COLUMNS if problem.damping is not None else ()
     pairing = PAIRING_COLUMNS if any(pair.follow for pair in problem.pairs) else ()
     tags = sorted({condition.tag for condition in problem.dirichlet})
@@ -432,4 +434,4 @@ def history_columns(config: dict, simulation) -> list[str]:
     balance = WORK_COLUMNS if tags or work else ()
     probes = (probe["name"] for probe in config.get("probe", []))
     bodies = (name for body in problem.bodies for name in body_columns(body.tag, problem.gdim))
-    return [*base, *work, *damping, *pairing, *supports, *balance, *probes, *bodies]
+    return [*base, *finite, *work, *damping, *pairing, *supports, *balance, *probes, *bodies]

@@ -40,7 +40,7 @@ __all__ = [
 
 
 #: The diagnostics computed only when a history column names them (or all are asked for).
-ON_REQUEST = ("penetration_max",)
+ON_REQUEST = ("penetration_max", "det_F_min")
 
 
 def assemble_global(form, comm) -> float:
@@ -223,6 +223,31 @@ class Penetration:
         return float(max_over_ranks(self.comm, [local])[0])
 
 
+class SmallestDeterminant:
+    """The smallest det F = det(I + grad u) over the mesh, at the nodes of a discontinuous
+    space that holds det F exactly on affine cells (degree gdim (k - 1) for P_k).
+
+    Args:
+        model: The :class:`~nitsche_dolfinx.model.ContactProblem`.
+        u: Displacement at the current time level.
+    """
+
+    def __init__(self, model, u: fem.Function):
+        self.comm = model.mesh.comm
+        degree = model.gdim * (model.degree - 1) + compat.geometry_degree(model.mesh) - 1
+        space = compat.function_space(model.mesh, "DG", degree)
+        self._field = fem.Function(space)
+        F = ufl.Identity(model.gdim) + ufl.grad(u)
+        self._expression = compat.expression(ufl.det(F), space)
+
+    def min(self) -> float:
+        """min det F over every rank."""
+        self._field.interpolate(self._expression)
+        array = self._field.x.array
+        local = float(array.min()) if array.size else np.inf
+        return -float(max_over_ranks(self.comm, [-local])[0])
+
+
 class MassMoments:
     """The mass of the body and its moments, from its mass matrix M (consistent, or the
     lumped or redistributed diagonal): the kinetic energy 1/2 v . M v, the total linear
@@ -365,7 +390,8 @@ class Diagnostics:
         trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
         self.moments = MassMoments(model)
         self._elastic = elastic
-        if elastic is None:
+        finite = getattr(model, "finite", False)  # int W(C(u)), not a quadratic form
+        if elastic is None and not finite:
             self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
             self._work = self._stiffness.createVecLeft()
         # without loads the potential is zero: no form to assemble each step
@@ -377,6 +403,8 @@ class Diagnostics:
             "contact_force": _total([c.force(u) for c in model.contacts]),
             "contact_area": _total([c.area(u) for c in model.contacts]),
         }
+        if elastic is None and finite:
+            forms["elastic"] = model.stored_energy(u)
         self._forms = ScalarForms(model.mesh, forms)
         each = {}
         if len(model.contacts) > 1:  # one contact: its totals are the sums
@@ -385,6 +413,7 @@ class Diagnostics:
                 each[f"contact_area_{k}"] = contact.area(u)
         self._each_forms = ScalarForms(model.mesh, each) if each else None
         self.penetration = Penetration(model, u)
+        self._determinant = None  # SmallestDeterminant, compiled when first asked for
         self._level: tuple[int, dict[str, float]] | None = None  # (its index, its values)
 
     def of_level(self, level: int, columns=()) -> dict[str, float]:
@@ -419,7 +448,7 @@ class Diagnostics:
     def stiffness_matrix(self):
         """The bulk stiffness K as a PETSc matrix (None when the stepper gives the elastic
         energy itself)."""
-        return self._stiffness if self._elastic is None else None
+        return getattr(self, "_stiffness", None) if self._elastic is None else None
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""
@@ -440,7 +469,12 @@ class Diagnostics:
         if self._potential is not None:
             values["potential"] = self._potential()
         kinetic = self.moments.kinetic(self.v)
-        elastic = self._elastic() if self._elastic else self._quadratic(self._stiffness, self.u)
+        if "elastic" in values:
+            elastic = values["elastic"]
+        elif self._elastic:
+            elastic = self._elastic()
+        else:
+            elastic = self._quadratic(self._stiffness, self.u)
         energy = kinetic + elastic + values["potential"]
         return {
             "energy": energy,
@@ -456,9 +490,15 @@ class Diagnostics:
         """Add to the :meth:`energies` ``values`` of the current state the diagnostics they
         lack: the largest penetration if ``columns`` name it (None: also), the momentum, the
         centre of mass and the totals of each contact term; returns ``values``."""
-        wanted = columns is None or any(name in columns for name in ON_REQUEST)
+        wanted = columns is None or "penetration_max" in columns
         if wanted and "penetration_max" not in values:
             values["penetration_max"] = self.penetration.max()
+        finite = getattr(self.model, "finite", False)
+        wanted = finite and (columns is None or "det_F_min" in columns)
+        if wanted and "det_F_min" not in values:
+            if self._determinant is None:
+                self._determinant = SmallestDeterminant(self.model, self.u)
+            values["det_F_min"] = self._determinant.min()
         if self.moments.momentum_names[0] in values:
             return values  # (completed before)
         values.update(self.moments.values(self.u, self.v))

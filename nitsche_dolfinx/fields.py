@@ -22,7 +22,6 @@ from petsc4py import PETSc
 from . import compat
 from .contact import heaviside, positive_part
 from .diagnostics import BoundaryField
-from .material import von_mises
 
 __all__ = [
     "CellMean",
@@ -46,7 +45,7 @@ def body_fields(problem, u, v) -> dict:
     fields = {
         "displacement": (u, shape),
         "velocity": (v, shape),
-        "von_mises": (von_mises(u, problem.material_constants), ()),
+        "von_mises": (problem.von_mises(u), ()),
     }
     material_id = getattr(problem.material_constants, "material_id", None)
     if material_id is not None:

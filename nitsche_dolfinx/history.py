@@ -31,6 +31,7 @@ __all__ = [
     "FRICTION_HISTORY_COLUMNS",
     "HISTORY_COLUMNS",
     "OBSTACLE_COLUMNS",
+    "FINITE_COLUMNS",
     "WORK_COLUMNS",
     "STATE_COLUMNS",
     "STEP_COLUMNS",
@@ -69,6 +70,9 @@ FRICTION_HISTORY_COLUMNS = (*HISTORY_COLUMNS, *BALANCE_COLUMNS)
 #: The columns of a run with a moving obstacle: the work the obstacles did since t = 0 and
 #: the energy the contact terms dissipated since t = 0 (docs/method.md section 13).
 OBSTACLE_COLUMNS = ("obstacle_work", "contact_dissipation")
+#: With a hyperelastic material: the smallest det F over the mesh (> 0: no element is
+#: inverted; docs/method.md section 15).
+FINITE_COLUMNS = ("det_F_min",)
 #: The work of loads, supports and moving obstacles since t = 0, and the energy balance:
 #: the internal energy's change plus what was dissipated, less that work
 #: (docs/method.md section 13).

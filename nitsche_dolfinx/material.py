@@ -12,10 +12,12 @@ material, docs/method.md section 10).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import ufl
 
+from .hyperelastic import LAWS
 from .parameters import require, require_positive, require_real
 
 __all__ = ["Material", "MaterialConstants", "eps", "sigma", "sigma_n", "sigma_t", "von_mises"]
@@ -23,27 +25,54 @@ __all__ = ["Material", "MaterialConstants", "eps", "sigma", "sigma_n", "sigma_t"
 
 @dataclass(frozen=True)
 class Material:
-    """Isotropic linear elastic material.
+    """Isotropic elastic material: linear (small strains) or hyperelastic (finite strains).
 
     Args:
-        E: Young's modulus (> 0).
-        nu: Poisson's ratio, in (-1, 1/2).
-        rho: Density (> 0).
+        E: Young's modulus (> 0); with a hyperelastic ``law``, its value at small strains.
+        nu: Poisson's ratio, in (-1, 1/2); likewise.
+        rho: Density (> 0), per unit reference volume.
+        law: ``"linear"`` (the default: linear elasticity, small strains), a name of
+            :data:`~nitsche_dolfinx.hyperelastic.LAWS` (``"svk"``: St Venant-Kirchhoff,
+            ``"neo_hookean"``: compressible neo-Hookean) or a strain energy
+            ``W(C, constants)``: a function of the 3 x 3 right Cauchy-Green tensor C (UFL;
+            C_33 = 1 in 2D) and of the runtime constants (``lmbda``, ``mu``, ``E``, ``nu``)
+            that returns W per unit reference volume (docs/method.md section 15).
     """
 
     E: float
     nu: float
     rho: float = 1.0
+    law: str | Callable = "linear"
 
     def __post_init__(self):
         require_positive(self.E, "E", "Young's modulus")
         require_real(self.nu, "nu", "Poisson's ratio")
         require(-1.0 < self.nu < 0.5, "nu", self.nu, "Poisson's ratio must lie in (-1, 1/2)")
         require_positive(self.rho, "rho", "the density")
+        require(
+            callable(self.law) or (isinstance(self.law, str) and self.law in ("linear", *LAWS)),
+            "law", self.law,
+            f"the material law must be 'linear', one of {sorted(LAWS)} or a strain energy "
+            "W(C, constants)",
+        )  # fmt: skip
+
+    @property
+    def finite(self) -> bool:
+        """Whether the law is hyperelastic (finite strains), not linear elasticity."""
+        return not (isinstance(self.law, str) and self.law == "linear")
+
+    @property
+    def strain_energy(self) -> Callable | None:
+        """The strain energy W(C, constants) of a hyperelastic law (None if linear)."""
+        if not self.finite:
+            return None
+        return LAWS[self.law] if isinstance(self.law, str) else self.law
 
     @classmethod
-    def from_lame(cls, lmbda: float, mu: float, rho: float = 1.0) -> Material:
-        """The material with Lame coefficients ``lmbda`` and ``mu``."""
+    def from_lame(
+        cls, lmbda: float, mu: float, rho: float = 1.0, law: str | Callable = "linear"
+    ) -> Material:
+        """The material with Lame coefficients ``lmbda`` and ``mu`` (and ``law``)."""
         require_positive(mu, "mu", "the shear modulus")
         require_real(lmbda, "lmbda", "the first Lame coefficient")
         # 3 lmbda + 2 mu > 0 (a positive bulk modulus) is E > 0 and -1 < nu < 1/2
@@ -55,7 +84,7 @@ class Material:
         )
         E = mu * (3 * lmbda + 2 * mu) / (lmbda + mu)
         nu = lmbda / (2 * (lmbda + mu))
-        return cls(E=E, nu=nu, rho=rho)
+        return cls(E=E, nu=nu, rho=rho, law=law)
 
     @property
     def lmbda(self) -> float:

@@ -31,8 +31,10 @@ from .contact import NitscheContact, PenaltyContact
 from .damping import RayleighDamping
 from .dirichlet import DirichletCondition
 from .expressions import has_text, vector_expression
+from .finite_contact import FiniteContact
+from .hyperelastic import averaged_stress, cauchy_stress, first_piola, strain_energy, von_mises_of
 from .mass import MassMatrix
-from .material import Material, MaterialConstants, sigma
+from .material import Material, MaterialConstants, sigma, von_mises
 from .meshes import cell_diameter
 from .pairs import CONTACT_PAIR_VARIANTS, PairContact, pair_halves
 from .parameters import (
@@ -140,6 +142,16 @@ class ContactProblem:
             if regions
             else MaterialConstants(material, lambda value: fem.Constant(mesh, float(value)))
         )
+        #: The strain energy W(C, constants) of a hyperelastic material (finite strains,
+        #: docs/method.md section 15), None for linear elasticity.
+        self.law = None if regions else material.strain_energy
+        if self.law is not None:
+            _check_finite(mesh, nitsche)
+        for each in self.materials if regions else []:
+            require(
+                not each.finite, "law", each.law,
+                "a hyperelastic material is one material for the whole mesh so far",
+            )  # fmt: skip
         self.degree = discretisation.degree
         self.method = nitsche.method
         self.mass = discretisation.mass
@@ -179,6 +191,11 @@ class ContactProblem:
         self.t = fem.Constant(mesh, 0.0)
         #: The position x in UFL (``ufl.SpatialCoordinate``), for data in space.
         self.x = ufl.SpatialCoordinate(mesh)
+
+    @property
+    def finite(self) -> bool:
+        """Whether the material is hyperelastic (finite strains, docs/method.md section 15)."""
+        return self.law is not None
 
     def largest(self, parameter: str) -> float:
         """The largest value of a :class:`~nitsche_dolfinx.material.Material` property
@@ -294,6 +311,17 @@ class ContactProblem:
                 "a moving obstacle is frictionless so far (the slip would be relative to it)",
             )  # fmt: skip
             obstacle.bind(self.mesh)
+        if self.finite:
+            require(
+                not getattr(obstacle, "moving", False), "obstacle", obstacle,
+                "a hyperelastic body meets obstacles that stand still so far",
+            )  # fmt: skip
+            contact = FiniteContact(
+                obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta
+            )
+            self.contacts.append(contact)
+            self.contact_tags.append(tag)
+            return contact
         law = PenaltyContact if self.method == "penalty" else NitscheContact
         contact = law(
             obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction
@@ -330,6 +358,10 @@ class ContactProblem:
         Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
         require_choice(variant, CONTACT_PAIR_VARIANTS, "variant", "contact pair variant")
+        require(
+            not self.finite, "law", self.materials[0].law,
+            "contact between hyperelastic bodies is not implemented yet (rigid obstacles are)",
+        )  # fmt: skip
         require(
             self.method == "nitsche", "method", self.method,
             "contact between bodies is Nitsche contact (not penalty nor the mixed method)",
@@ -440,6 +472,10 @@ class ContactProblem:
             self.method != "mixed", "method", self.method,
             "damping is for Nitsche's and the penalty method (not the mixed one)",
         )  # fmt: skip
+        require(
+            not self.finite, "law", self.materials[0].law,
+            "Rayleigh damping takes a linear stiffness: not with a hyperelastic material",
+        )  # fmt: skip
         damping = RayleighDamping(self.mesh, alpha, beta)
         if self.damping is None:
             self.damping = damping
@@ -475,12 +511,28 @@ class ContactProblem:
     # -- the terms of the weak form, used by the time schemes --------------------------
 
     def stress(self, u):
-        """sigma(u)."""
+        """sigma(u); at finite strains the first Piola-Kirchhoff stress P(u)."""
+        if self.finite:
+            return first_piola(self.law, self.material_constants, u)
         return sigma(u, self.material_constants)
 
     def bulk_stiffness(self, u, v):
-        """a(u, v) = int sigma(u) : eps(v)."""
+        """a(u, v) = int sigma(u) : eps(v); at finite strains int P(u) : grad v."""
+        if self.finite:
+            return ufl.inner(self.stress(u), ufl.grad(v)) * self.dx
         return ufl.inner(self.stress(u), ufl.sym(ufl.grad(v))) * self.dx
+
+    def stored_energy(self, u):
+        """The elastic energy as a form: int W(C(u)) at finite strains, 1/2 a(u, u) else."""
+        if self.finite:
+            return strain_energy(self.law, self.material_constants, u) * self.dx
+        return 0.5 * self.bulk_stiffness(u, u)
+
+    def von_mises(self, u):
+        """The von Mises stress (of the Cauchy stress at finite strains), in UFL."""
+        if self.finite:
+            return von_mises_of(cauchy_stress(self.law, self.material_constants, u))
+        return von_mises(u, self.material_constants)
 
     def inertia(self, acceleration, v):
         """<rho u'', v> with the consistent mass; zero for a diagonal mass
@@ -523,6 +575,8 @@ class ContactProblem:
         The stepper reads it once, when it is built."""
         if self.frictional:  # contact pairs keep it: measured symmetric to 5e-17
             return False
+        if self.finite:  # the averaged stress's derivative is not symmetric
+            return False
         if any(contact.obstacle.turns for contact in self.moving_contacts):
             # the hybrid scheme tests with n_c at t^{n+1/2} what its force takes with n_c
             # at t^{n+1} (docs/method.md section 13): a normal that turns breaks the symmetry
@@ -541,7 +595,11 @@ class ContactProblem:
     def hybrid_operator(self, u_old, u_new, v, velocity=None, reference=None):
         """The hybrid scheme's operator: A_Thgamma at the midpoint and the switching term
         Phi; with friction, the step's mean velocity ``velocity`` = (u_new - u_old) / tau."""
-        form = self.bulk_stiffness((u_old + u_new) / 2, v)
+        if self.finite:  # the energy-consistent stress (docs/method.md section 15)
+            stress = averaged_stress(self.law, self.material_constants, u_old, u_new)
+            form = ufl.inner(stress, ufl.grad(v)) * self.dx
+        else:
+            form = self.bulk_stiffness((u_old + u_new) / 2, v)
         for contact in self.contacts:
             form = form + contact.hybrid_residual(u_old, u_new, v, velocity, reference)
         return form
@@ -624,3 +682,19 @@ class ContactProblem:
             force.set_time(t)
         for _, traction in self._tractions:
             traction.set_time(t)
+
+
+def _check_finite(mesh, nitsche: NitscheParameters) -> None:
+    """Refuse what a hyperelastic material does not take (yet)."""
+    require(
+        mesh.geometry.dim > 1, "law", "hyperelastic",
+        "a hyperelastic material needs a 2D (plane strain) or 3D mesh",
+    )  # fmt: skip
+    require(
+        nitsche.method == "nitsche", "method", nitsche.method,
+        "a hyperelastic material takes Nitsche's method (not penalty nor the mixed one)",
+    )  # fmt: skip
+    require(
+        nitsche.friction is None, "friction", nitsche.friction,
+        "a hyperelastic body's contact is frictionless so far",
+    )  # fmt: skip

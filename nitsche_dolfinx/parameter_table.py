@@ -21,6 +21,7 @@ from __future__ import annotations
 import inspect
 from dataclasses import dataclass, replace
 
+from .hyperelastic import LAWS
 from .keys import REQUIRED, Key, toml_text
 from .linear_solvers import LINEAR_SOLVERS
 from .material import Material
@@ -177,6 +178,11 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("mu", "Material.from_lame", "[material] mu", None,
               _key("number", None, "shear modulus (not the friction coefficient, --mu)")),
     Parameter("rho", "Material", "[material] rho", None, _key("number", 1.0, "density")),
+    Parameter("law", "Material", "[material] law", None,
+              _key("string", "linear", "the material law: linear elasticity (small strains) "
+                   "or hyperelastic at finite strains, St Venant-Kirchhoff (svk) or "
+                   "compressible neo-Hookean, with E and nu their small-strain values",
+                   ("linear", *LAWS))),
     Parameter("damping_alpha", "ContactProblem.set_damping", "[damping] alpha", None,
               _key("number", 0.0, "Rayleigh damping C = alpha M + beta K: alpha >= 0 "
                    "[1/time], the mass-proportional part"), keyword="alpha"),

@@ -27,7 +27,6 @@ import numpy as np
 from dolfinx import fem
 
 from . import compat
-from .material import von_mises
 from .plotting import pyplot, save
 from .series import read_solution
 
@@ -61,7 +60,7 @@ class Snapshot:
         gdim = mesh.geometry.dim
         W = compat.function_space(mesh, "Lagrange", compat.geometry_degree(mesh))
         expressions = [simulation.u[i] for i in range(gdim)] + [
-            von_mises(simulation.u, simulation.problem.material_constants)
+            simulation.problem.von_mises(simulation.u)
         ]
         values = []
         for expression in expressions:

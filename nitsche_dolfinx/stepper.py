@@ -78,7 +78,7 @@ def step_solver(
     w, u, v, a, _ = state
     test = ufl.TestFunction(problem.V)
     F = scheme.residual(model, *state, test)
-    if not reuse_jacobian:
+    if not reuse_jacobian or problem.finite:  # finite strains: no affine bulk to keep
         require(
             not problem.pairs, "reuse_jacobian", reuse_jacobian,
             "contact between bodies assembles the Jacobian by parts: keep True",

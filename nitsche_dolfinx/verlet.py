@@ -101,6 +101,9 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
          "(mass_solver='cg'), or take mass='lumped'"),
         (problem.method != "nitsche", "method", problem.method,
          "the verlet scheme takes Nitsche's method"),
+        (problem.finite, "law", problem.materials[0].law,
+         "the verlet scheme takes linear elasticity so far: use the hybrid scheme with a "
+         "hyperelastic material"),
         (bool(problem.pairs) and problem.mass == "redistributed", "mass", problem.mass,
          "the verlet scheme takes contact between bodies with the lumped or consistent "
          "mass"),

@@ -1,0 +1,119 @@
+"""Nitsche contact with a rigid obstacle at finite strain, in the current configuration
+(docs/method.md section 15).
+
+The point X of Gamma_C is at x = X + u. With the obstacle's signed distance d and its
+normal n_c at x, and the nominal traction P N on the reference normal N::
+
+    sigma_n(u)      = (P(u) N) . n_c(x)
+    P_gamma(u)      = -d(x) - gamma_h sigma_n(u)
+    P_Thgamma(u; v) = D(-d(x))[v] - Theta gamma_h D sigma_n(u)[v]
+    contact term    = int_Gamma_C (1/gamma_h) [P_gamma(u)]_+ P_Thgamma(u; v)
+    consistency     = -int_Gamma_C Theta gamma_h sigma_n(u) D sigma_n(u)[v]
+
+integrals over the reference Gamma_C. With Theta = 1 the terms are the derivative of
+``-1/2 ||gamma_h^1/2 sigma_n||^2 + 1/2 ||gamma_h^-1/2 [P_gamma]_+||^2``. For a plane,
+-d(x) = u . n_c - g(X): the small-strain gap exactly.
+
+The hybrid step replaces each derivative D q(u)[v] by its mean along the step,
+``int_0^1 D q(u^n + s (u^{n+1} - u^n))[v] ds`` (Gauss in s), whose value at
+v = u^{n+1} - u^n is q(u^{n+1}) - q(u^n); P_gamma at the midpoint is the mean of its two
+ends. The energy argument of the linear hybrid scheme then holds as it is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import ufl
+from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
+from ufl.algorithms.apply_derivatives import apply_derivatives
+
+from .contact import NitscheContact, hybrid_contact_force
+from .hyperelastic import STEP_POINTS
+
+__all__ = ["FiniteContact", "gateaux"]
+
+
+def gateaux(quantity: Callable, u, v):
+    """D q(u)[v], the derivative of the UFL expression ``quantity(u)`` at ``u`` (any
+    expression of the displacement space's shape) in the direction of ``v`` (a test
+    function or a function of that space)."""
+    placeholder = ufl.Coefficient(v.ufl_function_space())
+    derivative = ufl.derivative(quantity(placeholder), placeholder, v)
+    derivative = apply_derivatives(apply_algebra_lowering(derivative))
+    return ufl.replace(derivative, {placeholder: u})
+
+
+class FiniteContact(NitscheContact):
+    """Nitsche contact of one Gamma_C with a rigid obstacle that stands still, at finite
+    strain (see the module docstring).
+
+    Args:
+        obstacle: The rigid obstacle (:mod:`nitsche_dolfinx.obstacles`).
+        ds: The measure of Gamma_C on the reference mesh.
+        piola: Function from a displacement to its first Piola-Kirchhoff stress P.
+        gamma_h: gamma0 h_T (reference cells).
+        nitsche_theta: The variant Theta.
+    """
+
+    def __init__(self, obstacle, ds, piola, gamma_h, nitsche_theta):
+        super().__init__(obstacle, ds, piola, gamma_h, nitsche_theta)
+        self.X = ufl.SpatialCoordinate(ds.ufl_domain())
+
+    # -- pointwise quantities at the current position x = X + u -----------------------
+
+    def normal_at(self, u):
+        """n_c at x = X + u."""
+        return self.obstacle.normal(self.X + u)
+
+    def penetration(self, u):
+        """-d(X + u) (> 0 means penetration)."""
+        return -self.obstacle.distance(self.X + u)
+
+    def sigma_n(self, u):
+        """(P(u) N) . n_c(X + u)."""
+        return ufl.dot(ufl.dot(self.stress(u), self.n), self.normal_at(u))
+
+    def projection(self, u):
+        """P_gamma(u) = -d(X + u) - gamma_h sigma_n(u)."""
+        return self.penetration(u) - self.gamma_h * self.sigma_n(u)
+
+    def _test_parts(self, u, v):
+        """D(-d)(u)[v] and D sigma_n(u)[v]."""
+        return gateaux(self.penetration, u, v), gateaux(self.sigma_n, u, v)
+
+    def _test_projection_at(self, u, v):
+        """P_Thgamma(u; v) = D(-d)(u)[v] - Theta gamma_h D sigma_n(u)[v]."""
+        d_pen, d_sigma = self._test_parts(u, v)
+        return d_pen - self.nitsche_theta * self.gamma_h * d_sigma
+
+    # -- forms -----------------------------------------------------------------------
+
+    def residual(self, u, v, velocity=None, reference=None):
+        """The contact terms of B(u)(v) at one time level."""
+        force = ufl.conditional(ufl.gt(self.projection(u), 0), self.projection(u), 0)
+        d_pen, d_sigma = self._test_parts(u, v)
+        theta_gamma = self.nitsche_theta * self.gamma_h
+        test = d_pen - theta_gamma * d_sigma
+        return (force / self.gamma_h * test - theta_gamma * self.sigma_n(u) * d_sigma) * self.ds
+
+    def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
+        """The hybrid step's contact terms: Phi from P_gamma at both ends, the derivatives
+        averaged along the step, sigma_n at the mean of its ends."""
+        step = u_new - u_old
+        d_pen, d_sigma = 0, 0
+        for s, w in STEP_POINTS:
+            parts = self._test_parts(u_old + s * step, v)
+            d_pen = d_pen + w * parts[0]
+            d_sigma = d_sigma + w * parts[1]
+        P_old, P_new = self.projection(u_old), self.projection(u_new)
+        force = hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
+        sigma_mean = (self.sigma_n(u_old) + self.sigma_n(u_new)) / 2
+        theta_gamma = self.nitsche_theta * self.gamma_h
+        test = d_pen - theta_gamma * d_sigma
+        return (force / self.gamma_h * test - theta_gamma * sigma_mean * d_sigma) * self.ds
+
+    def hybrid_state(self, u_old, u_new):
+        """The midpoint and Phi, P_gamma at the midpoint being the mean of its ends."""
+        P_old, P_new = self.projection(u_old), self.projection(u_new)
+        return (u_old + u_new) / 2, hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
