@@ -305,6 +305,12 @@ class MassMoments:
         """M f summed by component over all ranks (M f stays in the work vector)."""
         return sum_over_ranks(self.comm, self._rows(self._product(function, self._work)).sum(0))
 
+    def inertia_norm(self, v, dt: float) -> float:
+        """||M v|| / dt over all ranks: the force that would stop the velocity ``v`` in a
+        step ``dt``."""
+        self._product(v, self._work)
+        return self._work.norm() / dt
+
     def momentum(self, v) -> np.ndarray:
         """The total linear momentum, by component: the rows of M v summed."""
         return self.sums(v)

@@ -199,6 +199,9 @@ class NitscheStepper(TimeLevels, BalanceSums):
         self.v = fem.Function(V, name="velocity")
         self.a = fem.Function(V, name="acceleration")
         self.w = fem.Function(V, name="unknown")
+        #: At finite strains, the last step's unknown, the next step's initial guess (kept in
+        #: checkpoints: a restart takes the same guess); None otherwise.
+        self._last_unknown = fem.Function(V, name="last_unknown") if problem.finite else None
         problem.track_partners(self.u, self.v, self.a, self.w)  # contact between bodies
         self.newton_iterations, self.step_seconds = 0, 0.0
 
@@ -253,6 +256,8 @@ class NitscheStepper(TimeLevels, BalanceSums):
             self._loads = None  # the loads' vector while they do not depend on t
         self._friction_total = 0.0  # the friction dissipation since t = 0
         self._initialize(petsc_options, linear_solver)
+        if self._last_unknown is not None:  # the first step's guess: a0
+            self._last_unknown.x.array[:] = self.a.x.array
         self._internal_energy0 = self._internal_energy()
 
     def _initialize(self, petsc_options, linear_solver) -> None:
@@ -347,9 +352,15 @@ class NitscheStepper(TimeLevels, BalanceSums):
             self._w_bc.x.array[dofs] = (prescribed - u_free) / coefficient
         self._energy_before = self._energy_theta()
         problem.move_obstacles(self.t, t_new)
-        self.w.x.array[:] = a  # initial guess: the last acceleration
+        # initial guess: the last acceleration; at finite strains the last step's unknown
+        # (the hybrid scheme's a^{n+1} = 2 w - a^n alternates from step to step, too poor a
+        # guess for a nonlinear solve: Newton diverged from it on the P2 disk)
+        self.w.x.array[:] = a if self._last_unknown is None else self._last_unknown.x.array
         if self._external is not None:  # at rest in equilibrium, the scale of the equation
             self.solver.force_scale = self._external.force_norm()
+        if problem.finite:  # no exact iterate to recognise (docs/method.md section 15)
+            inertia = self.diagnostics.moments.inertia_norm(self.v, dt)
+            self.solver.force_scale = max(self.solver.force_scale, inertia)
         try:
             iterations = self._solve()
         except SolverError as error:
@@ -357,6 +368,8 @@ class NitscheStepper(TimeLevels, BalanceSums):
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
         u1, v1, a1 = scheme.kinematics(u, v, a, self.w.x.array, dt)
+        if self._last_unknown is not None:
+            self._last_unknown.x.array[:] = self.w.x.array
         damping = self._damping_work(v, v1, dt)  # (the kinematic v^{n+1}: the equation's)
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
@@ -478,6 +491,8 @@ class NitscheStepper(TimeLevels, BalanceSums):
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
         functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        if self._last_unknown is not None:
+            functions["last_unknown"] = self._last_unknown
         return {**functions, **self._balance_functions(), **self.problem.pairing_state()}
 
     def describe(self) -> dict[str, Any]:
