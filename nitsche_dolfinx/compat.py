@@ -57,6 +57,7 @@ __all__ = [
     "function_space",
     "has_mumps",
     "element_degree",
+    "evaluate",
     "geometry_degree",
     "geometry_dofmap",
     "GMSH_CELL_TYPES",
@@ -430,6 +431,18 @@ def interpolation_points(V) -> np.ndarray:
 def expression(ufl_expression, V) -> fem.Expression:
     """A compiled expression to interpolate into ``V`` with ``Function.interpolate``."""
     return fem.Expression(ufl_expression, interpolation_points(V))
+
+
+def evaluate(expression: fem.Expression, mesh, cells: np.ndarray, points: int) -> np.ndarray:
+    """The values of ``expression`` at its ``points`` reference points in each of ``cells``,
+    shaped (cells, points, values): ``eval(cells)`` up to 0.7, ``eval(mesh, cells)`` from
+    0.8."""
+    cells = np.asarray(cells, dtype=np.int32)
+    if "mesh" in inspect.signature(expression.eval).parameters:
+        values = expression.eval(mesh, cells)
+    else:
+        values = expression.eval(cells)
+    return np.asarray(values).reshape(cells.size, points, -1)
 
 
 # -- gmsh and XDMF ---------------------------------------------------------------------
