@@ -14,6 +14,11 @@ Design constraints that dolfinx 0.5 imposes on the meshes:
   ``read_from_msh`` fails (the package merges a ``.msh`` file into a gmsh model itself).
 - Cells are lines, triangles, quadrilaterals, tetrahedra or hexahedra, of one type per
   mesh: :data:`GMSH_CELL_TYPES`.
+
+and on expressions: an ``fem.Expression`` with an Argument (a test function) gives wrong
+values in 0.5 and corrupts the heap (measured), so the contact's quadrature
+operators tabulate the basis with basix and evaluate only expressions without one
+(:mod:`~nitsche_dolfinx.contact_quadrature`).
 """
 
 from __future__ import annotations

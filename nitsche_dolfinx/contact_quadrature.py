@@ -170,7 +170,7 @@ def _facet_quadrature(cell, tdim: int, degree: int):
     points = []
     for vertices in basix.topology(cell)[tdim - 1]:
         origin = geometry[vertices[0]]
-        axes = geometry[vertices[1:]] - origin
+        axes = geometry[vertices[1:tdim]] - origin  # (a quadrilateral's first two edges)
         points.append(origin + facet_points @ axes)
     return np.concatenate(points), np.asarray(weights)
 

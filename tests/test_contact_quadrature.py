@@ -6,14 +6,16 @@ import numpy as np
 import pytest
 import ufl
 from dolfinx import fem
+from dolfinx import mesh as dmesh
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import ParameterError, Simulation, compat
+from nitsche_dolfinx import ContactProblem, Material, ParameterError, Simulation, compat
 from nitsche_dolfinx.cases import bar_problem, impact_problem
 from nitsche_dolfinx.contact import positive_part
 from nitsche_dolfinx.contact_quadrature import QuadratureContact
+from nitsche_dolfinx.obstacles import SphereObstacle
 from nitsche_dolfinx.parameters import TimeStepping
 from nitsche_dolfinx.verlet import ExplicitStepper, VerletScheme
 
@@ -79,6 +81,31 @@ def test_the_quadrature_force_of_the_bar_is_the_assembled_one():
     """The bar's wall (Gamma_C a point; on two ranks, on one of them only)."""
     problem = bar_problem(nx=20, gamma0=0.2, nitsche_theta=0.0)
     assembled, quadrature = assembled_and_quadrature(problem, pressed(problem, 0.3))
+    scale = assembled.norm(PETSc.NormType.INFINITY)
+    assert scale > 0.0
+    quadrature.axpy(-1.0, assembled)
+    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-13 * scale
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("cell", ["quadrilateral", "hexahedron"])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_the_quadrature_force_on_quadrilaterals_and_hexahedra(cell, degree):
+    """A unit square or cube of quadrilaterals or hexahedra on a rigid circle or sphere
+    (Theta = 0): the assembled force terms to round-off (measured 6e-15)."""
+    comm = MPI.COMM_WORLD
+    if cell == "quadrilateral":
+        mesh = dmesh.create_unit_square(comm, 6, 5, dmesh.CellType.quadrilateral)
+    else:
+        mesh = dmesh.create_unit_cube(comm, 3, 3, 4, dmesh.CellType.hexahedron)
+    tdim = mesh.topology.dim
+    bottom = dmesh.locate_entities_boundary(mesh, tdim - 1, lambda x: np.isclose(x[tdim - 1], 0))
+    bottom = np.sort(bottom).astype(np.int32)
+    tags = dmesh.meshtags(mesh, tdim - 1, bottom, np.full(bottom.size, 1, dtype=np.int32))
+    problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.3, rho=1.0), degree=degree,
+                             nitsche_theta=0.0)  # fmt: skip
+    problem.add_obstacle(SphereObstacle([0.5] * (tdim - 1) + [-3.0], 3.0), 1)
+    assembled, quadrature = assembled_and_quadrature(problem, pressed(problem, 0.05))
     scale = assembled.norm(PETSc.NormType.INFINITY)
     assert scale > 0.0
     quadrature.axpy(-1.0, assembled)
