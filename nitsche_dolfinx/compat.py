@@ -14,6 +14,11 @@ Design constraints that dolfinx 0.5 imposes on the meshes:
   ``read_from_msh`` fails (the package merges a ``.msh`` file into a gmsh model itself).
 - Cells are lines, triangles, quadrilaterals, tetrahedra or hexahedra, of one type per
   mesh: :data:`GMSH_CELL_TYPES`.
+
+and on expressions: an ``fem.Expression`` with an Argument (a test function) gives wrong
+values in 0.5 and corrupts the heap (measured), so the contact's quadrature
+operators tabulate the basis with basix and evaluate only expressions without one
+(:mod:`~nitsche_dolfinx.contact_quadrature`).
 """
 
 from __future__ import annotations
@@ -57,6 +62,7 @@ __all__ = [
     "function_space",
     "has_mumps",
     "element_degree",
+    "evaluate",
     "geometry_degree",
     "geometry_dofmap",
     "GMSH_CELL_TYPES",
@@ -430,6 +436,18 @@ def interpolation_points(V) -> np.ndarray:
 def expression(ufl_expression, V) -> fem.Expression:
     """A compiled expression to interpolate into ``V`` with ``Function.interpolate``."""
     return fem.Expression(ufl_expression, interpolation_points(V))
+
+
+def evaluate(expression: fem.Expression, mesh, cells: np.ndarray, points: int) -> np.ndarray:
+    """The values of ``expression`` at its ``points`` reference points in each of ``cells``,
+    shaped (cells, points, values): ``eval(cells)`` up to 0.7, ``eval(mesh, cells)`` from
+    0.8."""
+    cells = np.asarray(cells, dtype=np.int32)
+    if "mesh" in inspect.signature(expression.eval).parameters:
+        values = expression.eval(mesh, cells)
+    else:
+        values = expression.eval(cells)
+    return np.asarray(values).reshape(cells.size, points, -1)
 
 
 # -- gmsh and XDMF ---------------------------------------------------------------------

@@ -32,6 +32,7 @@ from . import compat
 from .coercivity import coercivity_ratio, constant_value
 from .collective import sum_over_ranks
 from .contact import positive_part
+from .contact_quadrature import QuadratureContact
 from .damping import DampingPower, damped_stable_step
 from .diagnostics import Diagnostics, assembled_matrix
 from .dirichlet import DirichletDofs
@@ -40,7 +41,7 @@ from .fields import ContactFields, LevelRefresh, body_fields
 from .model import ContactProblem
 from .obstacle_work import ObstacleWork
 from .pair_coupling import add_partner_terms
-from .parameters import ParameterError, TimeStepping
+from .parameters import ParameterError, TimeStepping, require_choice
 from .schemes import VerletScheme
 from .solver import SolverError
 from .stable_step import largest_eigenvalue, round_down, stable_step
@@ -60,6 +61,10 @@ __all__ = ["ExplicitStepper", "UnstableStep", "VerletScheme"]
 #: :data:`BLOWUP_WINDOW` steps before (an unstable explicit step grows geometrically).
 BLOWUP_FACTOR = 100.0
 BLOWUP_WINDOW = 100
+#: How the steps get the contact's force terms: "quadrature" (the obstacles that stand
+#: still from operators on Gamma_C's quadrature points, the others by assembly) or "forms"
+#: (all by assembly).
+CONTACT_FORCES = ("quadrature", "forms")
 
 
 class UnstableStep(SolverError):
@@ -127,10 +132,18 @@ def _check_problem(problem: ContactProblem, scheme: VerletScheme) -> None:
 class ExplicitStepper(TimeLevels, BalanceSums):
     """Steps of a :class:`~nitsche_dolfinx.model.ContactProblem` by the Verlet scheme: the
     force at u^{n+1} assembled as a vector, divided by the mass (a diagonal, or the
-    consistent one by CG: :mod:`~nitsche_dolfinx.explicit_mass`)."""
+    consistent one by CG: :mod:`~nitsche_dolfinx.explicit_mass`).
 
-    def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping):
+    The force terms of the obstacles that stand still come from operators on the
+    quadrature points of Gamma_C (:class:`~nitsche_dolfinx.contact_quadrature.
+    QuadratureContact`, ``contact_force="quadrature"``, the default); those of moving
+    obstacles and contact pairs, or all with ``contact_force="forms"``, from the assembly
+    of their forms at each step. The two give the same force to round-off."""
+
+    def __init__(self, problem: ContactProblem, scheme: VerletScheme, time_stepping: TimeStepping,
+                 contact_force: str = "quadrature"):  # fmt: skip
         _check_problem(problem, scheme)
+        require_choice(contact_force, CONTACT_FORCES, "contact_force", "contact force")
         self.problem, self.scheme = problem, scheme
         self.comm = problem.mesh.comm
         V = problem.V
@@ -152,6 +165,10 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         problem.track_partners(self.u, self.v)
         partner_forms = []
         fixed_affine = None  # the affine terms of the obstacles that stand still
+        assembled = None  # the force terms assembled at each step
+        #: the obstacles that stand still, whose force terms come from quadrature operators
+        still = [c for c in problem.contacts if not c.moving and c not in self._pairs]
+        still = still if contact_force == "quadrature" else []
         for contact in problem.contacts:
             term = contact.affine_terms(trial, test)
             affine = term if affine is None else affine + term
@@ -162,12 +179,15 @@ class ExplicitStepper(TimeLevels, BalanceSums):
             if contact.moving:  # its normal may turn: A_Thgamma's boundary part each step
                 term = term + contact.affine_terms(self.u, test)
             forces = term if forces is None else forces + term
+            if contact not in still:
+                assembled = term if assembled is None else assembled + term
             if contact in self._pairs:
                 partner_forms.append(fem.form(contact.partner_term(force, test)))
+        self._quadrature = QuadratureContact(problem, still, self.u) if still else None
         self._partner_forms = partner_forms
         self._stiffness = assembled_matrix(problem.bulk_stiffness(trial, test))
         self._boundary = None if fixed_affine is None else assembled_matrix(fixed_affine)
-        boundary = -forces if forces is not None else None
+        boundary = -assembled if assembled is not None else None
         if problem.has_tractions:
             tractions = problem.traction_load(test)
             boundary = tractions if boundary is None else tractions + boundary
@@ -279,6 +299,10 @@ class ExplicitStepper(TimeLevels, BalanceSums):
             pair.update([self.u])
         if self._force is not None:
             fem_petsc.assemble_vector(vector, self._force)
+        if self._quadrature is not None:
+            with vector.localForm() as local:
+                self._quadrature.subtract(local.array)
+        if self._force is not None or self._quadrature is not None:
             vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         add_partner_terms(self._pairs, self._partner_forms, vector, self._partner_work,
                           self._fixed_owned, scale=-1.0)  # fmt: skip
