@@ -450,6 +450,13 @@ class Diagnostics:
         """Take ``values`` as the diagnostics of ``level`` (None: forget them)."""
         self._level = None if values is None else (level, values)
 
+    def smallest_determinant(self) -> float:
+        """The smallest det F over the mesh at the current state (:class:`SmallestDeterminant`,
+        compiled when first asked for)."""
+        if self._determinant is None:
+            self._determinant = SmallestDeterminant(self.model, self.u)
+        return self._determinant.min()
+
     @property
     def stiffness_matrix(self):
         """The bulk stiffness K as a PETSc matrix (None when the stepper gives the elastic
@@ -502,9 +509,7 @@ class Diagnostics:
         finite = getattr(self.model, "finite", False)
         wanted = finite and (columns is None or "det_F_min" in columns)
         if wanted and "det_F_min" not in values:
-            if self._determinant is None:
-                self._determinant = SmallestDeterminant(self.model, self.u)
-            values["det_F_min"] = self._determinant.min()
+            values["det_F_min"] = self.smallest_determinant()
         if self.moments.momentum_names[0] in values:
             return values  # (completed before)
         values.update(self.moments.values(self.u, self.v))

@@ -29,6 +29,7 @@ __all__ = [
     "averaged_stress",
     "cauchy_stress",
     "deformation_gradient",
+    "gauss_points",
     "first_piola",
     "neo_hookean",
     "saint_venant_kirchhoff",
@@ -58,12 +59,19 @@ LAWS: dict[str, Callable] = {
 }
 #: The laws whose W is quadratic in C: their averaged stress is the stress at the mean C.
 QUADRATIC_LAWS = (saint_venant_kirchhoff,)
-#: The points and weights in s on [0, 1] of the means along a step, for the averaged
-#: stress of a law that is not quadratic and the contact terms (Gauss-Legendre, exact for
-#: polynomials of degree 7 in s; for the neo-Hookean law the energy error of a step falls
-#: from 1e-8 E with 2 points to 1e-12 with 3 and round-off with 4: docs/method.md section 15).
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(4)
-STEP_POINTS = tuple(zip(((_NODES + 1) / 2).tolist(), (_WEIGHTS / 2).tolist()))
+
+
+def gauss_points(count: int) -> tuple[tuple[float, float], ...]:
+    """The Gauss-Legendre points and weights (s, w) on [0, 1], exact for polynomials in s
+    of degree 2 count - 1."""
+    nodes, weights = np.polynomial.legendre.leggauss(count)
+    return tuple(zip(((nodes + 1) / 2).tolist(), (weights / 2).tolist()))
+
+
+#: The points in s of the averaged stress of a law that is not quadratic in C: for the
+#: neo-Hookean law the energy error of a step falls from 1e-8 E with 2 points to 1e-12
+#: with 3 and round-off with 4 (docs/method.md section 15).
+STEP_POINTS = gauss_points(4)
 
 
 def deformation_gradient(u):

@@ -178,7 +178,7 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("mu", "Material.from_lame", "[material] mu", None,
               _key("number", None, "shear modulus (not the friction coefficient, --mu)")),
     Parameter("rho", "Material", "[material] rho", None, _key("number", 1.0, "density")),
-    Parameter("law", "Material", "[material] law", None,
+    Parameter("law", "Material", "[material] law", "--law",
               _key("string", "linear", "the material law: linear elasticity (small strains) "
                    "or hyperelastic at finite strains, St Venant-Kirchhoff (svk) or "
                    "compressible neo-Hookean, with E and nu their small-strain values",

@@ -425,6 +425,8 @@ class NitscheStepper(TimeLevels, BalanceSums):
         (:func:`energy_controlled`): u^n, v^n, a^n are put back and
         :class:`UncontrolledStep` raised."""
         values = self.diagnostics.energies()
+        if self.problem.finite:  # an inverted element is no state (docs/method.md section 15)
+            values["det_F_min"] = self.diagnostics.smallest_determinant()
         if energy_controlled(values):
             self.diagnostics.remember(self.step_index + 1, values)
             return

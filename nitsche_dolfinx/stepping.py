@@ -57,15 +57,24 @@ class UncontrolledStep(SolverError):
 
     def __init__(self, values: dict[str, float], iterations: int, hint: str):
         self.values = values
-        self.cut_may_help = not _finite_values(values)
+        self.inverted = values.get("det_F_min", 1.0) <= 0.0
+        self.cut_may_help = self.inverted or not _finite_values(values)
         self._hint_text = hint
         super().__init__(0, iterations, float("nan"))
-        self.reason_name = "NOT_FINITE" if self.cut_may_help else "ENERGY_NOT_CONTROLLED"
+        names = ("ENERGY_NOT_CONTROLLED", "NOT_FINITE", "INVERTED")
+        self.reason_name = names[self.cut_may_help + self.inverted]
 
     def _message(self) -> str:
         where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
         values = self.values
-        if self.cut_may_help:
+        if self.inverted:
+            return (
+                f"{where}an element is turned inside out (det F = {values['det_F_min']:.3g} "
+                "<= 0): a smaller dt or gamma0 may keep it, but a law that gives way under "
+                "strong compression (St Venant-Kirchhoff) does not; the neo-Hookean law resists "
+                "it (docs/method.md section 15)"
+            )
+        if not _finite_values(values):
             return f"{where}the converged state is not finite (E = {values['energy']:.6g})"
         kinetic_elastic = values["kinetic"] + values["elastic"]
         controlled = values["energy_theta"] - values["potential"]
@@ -84,7 +93,7 @@ def _finite_values(values: dict[str, float]) -> bool:
 def energy_controlled(values: dict[str, float]) -> bool:
     """Whether the diagnostics of a level are finite and E_Theta - potential keeps at least
     :data:`ENERGY_CONTROL` of kinetic + elastic (docs/method.md section 8)."""
-    if not _finite_values(values):
+    if not _finite_values(values) or values.get("det_F_min", 1.0) <= 0.0:
         return False
     kinetic_elastic = values["kinetic"] + values["elastic"]
     return values["energy_theta"] - values["potential"] >= ENERGY_CONTROL * kinetic_elastic

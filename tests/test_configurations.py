@@ -116,6 +116,25 @@ CASES = {
         ["c_shape_2d.py", "--t-end", "0.5", "--mesh-size", "0.2"],
         "",
     ),
+    "soft_ring_2d": (
+        "soft_ring_2d.toml",
+        {"t_end = 3.0": "t_end = 0.2"},
+        ["soft_ring_2d.py", "--t-end", "0.2"],
+        "",
+    ),
+    "rubber_ball_3d": (
+        "rubber_ball_3d.toml",
+        {"t_end = 6.0": "t_end = 0.2", "mesh_size = 0.3": "mesh_size = 0.6"},
+        ["rubber_ball_3d.py", "--t-end", "0.2", "--mesh-size", "0.6"],
+        "",
+    ),
+    "ball_3d_neo_hookean": (
+        "ball_3d_neo_hookean.toml",
+        {"t_end = 40.0": "t_end = 11.0", **COARSE},
+        ["ball_3d.py", "--law", "neo_hookean", "--gamma0", "1e-4", "--t-end", "11",
+         *COARSE_FLAGS, "--no-compare"],
+        "",
+    ),
     "ball_on_slab_3d": (
         "ball_on_slab_3d.toml",
         {"t_end = 15.0": "t_end = 2.0", "dt = 0.1": "dt = 1.0",
