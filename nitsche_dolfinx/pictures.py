@@ -221,11 +221,25 @@ def _curved_edges(pyvista, cells: np.ndarray, points: np.ndarray, samples: int):
     return pyvista.PolyData(polyline_points, lines=polylines)
 
 
+#: The half-diagonal of the impact test ball's bounding box (radius 20), the size its view
+#: of the ground is made for.
+_BALL_SIZE = 20.0 * np.sqrt(3.0)
+
+
+def _ground_scale(bounds) -> float:
+    """The size of the body of ``bounds`` over the impact test ball's."""
+    low, high = np.array(bounds[0::2]), np.array(bounds[1::2])
+    return float(np.linalg.norm(high - low) / 2 / _BALL_SIZE)
+
+
 def _camera(bounds, ground: bool) -> list:
-    """The view of the impact test's ball (``ground``), or one from the same side framing
-    ``bounds`` (xmin, xmax, ymin, ymax, zmin, zmax)."""
+    """The view of a body on the ground, the impact test's ball's scaled to its size
+    (``ground``), or one from the same side framing ``bounds`` (xmin, xmax, ymin, ymax,
+    zmin, zmax)."""
     if ground:
-        return [(80.0, -100.0, 38.0), (0.0, 0.0, 13.0), (0.0, 0.0, 1.0)]
+        scale = _ground_scale(bounds)
+        return [(80.0 * scale, -100.0 * scale, 38.0 * scale), (0.0, 0.0, 13.0 * scale),
+                (0.0, 0.0, 1.0)]  # fmt: skip
     low, high = np.array(bounds[0::2]), np.array(bounds[1::2])
     centre, radius = (low + high) / 2, np.linalg.norm(high - low) / 2
     side = np.array([80.0, -100.0, 25.0])  # the direction of the ball's view
@@ -236,7 +250,8 @@ def _plot_3d(pyvista, bounds, surface, deformed, edges, colours, bar, text, grou
     """The body from aside (on the ground), and its far half with the cut through the
     centre (of the reference ``bounds``)."""
     plotter = pyvista.Plotter(off_screen=True, window_size=(1600, 800), shape=(1, 2))
-    plane = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=110, j_size=110)
+    size = 110 * _ground_scale(bounds)
+    plane = pyvista.Plane(center=(0, 0, 0), direction=(0, 0, 1), i_size=size, j_size=size)
     camera = _camera(bounds, ground)
     middle = np.array(camera[1])
     plotter.subplot(0, 0)
