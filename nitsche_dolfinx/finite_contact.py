@@ -28,7 +28,7 @@ import ufl
 from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
 from ufl.algorithms.apply_derivatives import apply_derivatives
 
-from .contact import NitscheContact, hybrid_contact_force
+from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .hyperelastic import gauss_points
 
 #: The points in s of the contact terms' mean derivatives along a step: exact for St
@@ -97,7 +97,7 @@ class FiniteContact(NitscheContact):
 
     def residual(self, u, v, velocity=None, reference=None):
         """The contact terms of B(u)(v) at one time level."""
-        force = ufl.conditional(ufl.gt(self.projection(u), 0), self.projection(u), 0)
+        force = positive_part(self.projection(u))
         d_pen, d_sigma = self._test_parts(u, v)
         theta_gamma = self.nitsche_theta * self.gamma_h
         test = d_pen - theta_gamma * d_sigma

@@ -81,7 +81,7 @@ def deformation_gradient(u):
 
 
 def _embedded(C):
-    """C as the 3 x 3 tensor of plane strain (C_33 = 1) in 2D, itself in 3D."""
+    """C (or F) as the 3 x 3 tensor of plane strain (C_33 = 1) in 2D, itself in 3D."""
     if C.ufl_shape[0] == 3:
         return C
     return ufl.as_matrix([[C[0, 0], C[0, 1], 0], [C[1, 0], C[1, 1], 0], [0, 0, 1]])
@@ -137,7 +137,7 @@ def cauchy_stress(law: Callable, constants, u):
     F = deformation_gradient(u)
     C = F.T * F
     S = _second_piola_3d(law, constants, C)
-    F3 = _embedded(F) if F.ufl_shape[0] == 2 else F
+    F3 = _embedded(F)
     return F3 * S * F3.T / ufl.det(F3)
 
 

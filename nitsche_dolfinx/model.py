@@ -311,7 +311,7 @@ class ContactProblem:
                 "a moving obstacle is frictionless so far (the slip would be relative to it)",
             )  # fmt: skip
             obstacle.bind(self.mesh)
-        if self.finite:
+        if self.finite:  # in the current configuration (docs/method.md section 15)
             require(
                 not getattr(obstacle, "moving", False), "obstacle", obstacle,
                 "a hyperelastic body meets obstacles that stand still so far",
@@ -319,13 +319,12 @@ class ContactProblem:
             contact = FiniteContact(
                 obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta
             )
-            self.contacts.append(contact)
-            self.contact_tags.append(tag)
-            return contact
-        law = PenaltyContact if self.method == "penalty" else NitscheContact
-        contact = law(
-            obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta, self.friction
-        )
+        else:
+            law = PenaltyContact if self.method == "penalty" else NitscheContact
+            contact = law(
+                obstacle, self.ds(tag), self.stress, self.gamma_h, self.nitsche_theta,
+                self.friction,
+            )  # fmt: skip
         self.contacts.append(contact)
         self.contact_tags.append(tag)
         return contact

@@ -135,7 +135,8 @@ def energy_figure(
         history = histories[0]
         for name, label, style in _PARTS:
             top.plot(history["t"], history[name], label=label, **style)
-        if "pairing_energy" in history:  # pairs that follow the sliding: what never rises
+        paired = "pairing_energy" in history and np.any(history["pairing_energy"] != 0)
+        if paired:  # pairs that follow the sliding: what never rises
             controlled = history["energy_theta"] - history["pairing_energy"]
             label = r"$E_\Theta^h$ - pairing_energy"
             top.plot(history["t"], controlled, label=label, color="tab:olive", ls=":")

@@ -8,6 +8,7 @@ import textwrap
 import numpy as np
 import pytest
 import ufl
+from dolfinx import fem
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
@@ -141,8 +142,6 @@ def test_contact_test_terms_are_the_derivatives_of_the_contact_quantities():
     """D sigma_n(u)[v] of :func:`gateaux` against a centred difference of sigma_n on a
     curved obstacle (the normal turns with x = X + u): agreement to 1e-7, the difference's
     truncation error at eps = 1e-5."""
-    from dolfinx import fem
-
     mesh = dmesh.create_unit_square(MPI.COMM_WORLD, 3, 3)
     problem = ContactProblem(mesh, None, Material(E=1.0, nu=0.3, law="neo_hookean"))
     constants = MaterialConstants(Material(E=1.0, nu=0.3), lambda x: fem.Constant(mesh, x))
