@@ -397,6 +397,7 @@ class Diagnostics:
         self.moments = MassMoments(model)
         self._elastic = elastic
         finite = getattr(model, "finite", False)  # int W(C(u)), not a quadratic form
+        self._stiffness = None  # K, for 1/2 u . K u (linear elasticity)
         if elastic is None and not finite:
             self._stiffness = assembled_matrix(model.bulk_stiffness(trial, test))
             self._work = self._stiffness.createVecLeft()
@@ -461,7 +462,7 @@ class Diagnostics:
     def stiffness_matrix(self):
         """The bulk stiffness K as a PETSc matrix (None when the stepper gives the elastic
         energy itself)."""
-        return getattr(self, "_stiffness", None) if self._elastic is None else None
+        return self._stiffness if self._elastic is None else None
 
     def _quadratic(self, matrix, function) -> float:
         """1/2 x^T A x over all ranks."""

@@ -368,8 +368,6 @@ class NitscheStepper(TimeLevels, BalanceSums):
             error.add_context(step=self.step_index + 1, t=t_new)
             raise
         u1, v1, a1 = scheme.kinematics(u, v, a, self.w.x.array, dt)
-        if self._last_unknown is not None:
-            self._last_unknown.x.array[:] = self.w.x.array
         damping = self._damping_work(v, v1, dt)  # (the kinematic v^{n+1}: the equation's)
         massless_velocity(self._massless, u, u1, v1, a1, dt)
         if self._friction is not None:  # before u^n is overwritten
@@ -388,6 +386,8 @@ class NitscheStepper(TimeLevels, BalanceSums):
             problem.move_obstacles(self.t)
             self._restore_sums(sums)
             raise
+        if self._last_unknown is not None:  # the guess of the next step: an accepted one
+            self._last_unknown.x.array[:] = self.w.x.array
         self._damping_step = damping
         self.damping_dissipation += damping
         self._friction_total += self.friction_dissipation

@@ -57,12 +57,14 @@ class UncontrolledStep(SolverError):
 
     def __init__(self, values: dict[str, float], iterations: int, hint: str):
         self.values = values
-        self.inverted = values.get("det_F_min", 1.0) <= 0.0
+        self.inverted = _inverted(values)
         self.cut_may_help = self.inverted or not _finite_values(values)
         self._hint_text = hint
         super().__init__(0, iterations, float("nan"))
-        names = ("ENERGY_NOT_CONTROLLED", "NOT_FINITE", "INVERTED")
-        self.reason_name = names[self.cut_may_help + self.inverted]
+        if self.inverted:
+            self.reason_name = "INVERTED"
+        else:
+            self.reason_name = "NOT_FINITE" if self.cut_may_help else "ENERGY_NOT_CONTROLLED"
 
     def _message(self) -> str:
         where = "" if self.step is None else f"at step {self.step} (t = {self.t:.6g}): "
@@ -90,10 +92,15 @@ def _finite_values(values: dict[str, float]) -> bool:
     return all(math.isfinite(value) for key, value in values.items() if key != "penetration_max")
 
 
+def _inverted(values: dict[str, float]) -> bool:
+    """Whether an element is turned inside out (det F <= 0; finite strains only)."""
+    return values.get("det_F_min", 1.0) <= 0.0
+
+
 def energy_controlled(values: dict[str, float]) -> bool:
     """Whether the diagnostics of a level are finite and E_Theta - potential keeps at least
     :data:`ENERGY_CONTROL` of kinetic + elastic (docs/method.md section 8)."""
-    if not _finite_values(values) or values.get("det_F_min", 1.0) <= 0.0:
+    if not _finite_values(values) or _inverted(values):
         return False
     kinetic_elastic = values["kinetic"] + values["elastic"]
     return values["energy_theta"] - values["potential"] >= ENERGY_CONTROL * kinetic_elastic
