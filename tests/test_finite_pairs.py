@@ -1,7 +1,7 @@
 """Contact between hyperelastic bodies (docs/method.md section 15, "Contact between
 bodies"): two neo-Hookean disks colliding head-on, P1, paired along the axis of the
 collision; E_Theta, the momenta, the forces on the two bodies, the small-strain limit,
-the other implicit schemes, self-contact, 2 ranks against one."""
+the other implicit schemes, self-contact, a restart, 2 ranks against one."""
 
 from __future__ import annotations
 
@@ -191,6 +191,25 @@ def test_self_contact_at_finite_strain():
     assert np.max(values["contact_force_1"]) > 0  # the slot closed
     energy = np.asarray(values["energy_theta"]) - np.asarray(values["pairing_energy"])
     assert np.diff(energy).max() < RTOL * energy[0]
+
+
+def test_restart_in_contact_continues_the_run_to_the_bit(tmp_path):
+    """Stopped at t = 1.5 (in contact) and restarted from its checkpoint, the collision's
+    rows after it are the uninterrupted run's to the bit: the pairing, the Newton guess
+    and, on the first Jacobian in contact, the coupling's sparsity are the same."""
+    columns = ("energy", "energy_theta", "contact_force", "det_F_min", "momentum_1_y")
+    history = run(disks_problem(), 3.0)
+    out = str(tmp_path / "run")
+    Simulation(disks_problem(), HybridScheme(), dt=DT, t_end=1.5).run(
+        out=out, checkpoint_every=1000
+    )
+    restarted = Simulation(disks_problem(), HybridScheme(), dt=DT, t_end=3.0).run(
+        out=out, restart=True
+    )
+    kept = np.asarray(restarted["t"]) > 1.55
+    assert kept.sum() == 15 and history["contact_force"][kept].max() > 0
+    for column in columns:
+        assert np.array_equal(np.asarray(restarted[column])[kept], history[column][kept]), column
 
 
 @pytest.mark.mpi
