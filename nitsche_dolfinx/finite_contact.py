@@ -18,6 +18,10 @@ The hybrid step replaces each derivative D q(u)[v] by its mean along the step,
 ``int_0^1 D q(u^n + s (u^{n+1} - u^n))[v] ds`` (Gauss in s), whose value at
 v = u^{n+1} - u^n is q(u^{n+1}) - q(u^n); P_gamma at the midpoint is the mean of its two
 ends. The energy argument of the linear hybrid scheme then holds as it is.
+
+A half of a contact pair between hyperelastic bodies (:class:`FinitePairContact`) takes
+the same terms with the pair's gap, -d = (u - T u) . n_c - g, and its n_c, those of the
+pairing (docs/method.md section 15, "Contact between bodies").
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from ufl.algorithms.apply_derivatives import apply_derivatives
 
 from .contact import NitscheContact, hybrid_contact_force, positive_part
 from .hyperelastic import gauss_points
+from .pairs import PairContact
 
 #: The points in s of the contact terms' mean derivatives along a step: exact for St
 #: Venant-Kirchhoff and a plane (D sigma_n is then quadratic in s). The neo-Hookean disk's
@@ -37,7 +42,7 @@ from .hyperelastic import gauss_points
 #: facet Jacobian is twice as long to compile (docs/method.md section 15).
 CONTACT_POINTS = gauss_points(2)
 
-__all__ = ["FiniteContact", "gateaux"]
+__all__ = ["FiniteContact", "FinitePairContact", "gateaux"]
 
 
 def gateaux(quantity: Callable, u, v):
@@ -50,7 +55,48 @@ def gateaux(quantity: Callable, u, v):
     return ufl.replace(derivative, {placeholder: u})
 
 
-class FiniteContact(NitscheContact):
+class _FiniteTerms:
+    """The contact terms at finite strain of a contact law with ``projection``,
+    ``sigma_n``, ``_test_parts`` (D(-d)(u)[v] and D sigma_n(u)[v]), ``gamma_h``,
+    ``nitsche_theta`` and ``ds`` (see the module docstring); :meth:`_weighted` scales the
+    forms (a contact pair's half, docs/method.md section 15)."""
+
+    def _weighted(self, form):
+        return form
+
+    def residual(self, u, v, velocity=None, reference=None):
+        """The contact terms of B(u)(v) at one time level."""
+        force = positive_part(self.projection(u))
+        d_pen, d_sigma = self._test_parts(u, v)
+        theta_gamma = self.nitsche_theta * self.gamma_h
+        test = d_pen - theta_gamma * d_sigma
+        form = (force / self.gamma_h * test - theta_gamma * self.sigma_n(u) * d_sigma) * self.ds
+        return self._weighted(form)
+
+    def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
+        """The hybrid step's contact terms: Phi from P_gamma at both ends, the derivatives
+        averaged along the step, sigma_n at the mean of its ends."""
+        step = u_new - u_old
+        d_pen, d_sigma = 0, 0
+        for s, w in CONTACT_POINTS:
+            parts = self._test_parts(u_old + s * step, v)
+            d_pen = d_pen + w * parts[0]
+            d_sigma = d_sigma + w * parts[1]
+        P_old, P_new = self.projection(u_old), self.projection(u_new)
+        force = hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
+        sigma_mean = (self.sigma_n(u_old) + self.sigma_n(u_new)) / 2
+        theta_gamma = self.nitsche_theta * self.gamma_h
+        test = d_pen - theta_gamma * d_sigma
+        form = (force / self.gamma_h * test - theta_gamma * sigma_mean * d_sigma) * self.ds
+        return self._weighted(form)
+
+    def hybrid_state(self, u_old, u_new):
+        """The midpoint and Phi, P_gamma at the midpoint being the mean of its ends."""
+        P_old, P_new = self.projection(u_old), self.projection(u_new)
+        return (u_old + u_new) / 2, hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
+
+
+class FiniteContact(_FiniteTerms, NitscheContact):
     """Nitsche contact of one Gamma_C with a rigid obstacle that stands still, at finite
     strain (see the module docstring).
 
@@ -95,30 +141,6 @@ class FiniteContact(NitscheContact):
 
     # -- forms -----------------------------------------------------------------------
 
-    def residual(self, u, v, velocity=None, reference=None):
-        """The contact terms of B(u)(v) at one time level."""
-        force = positive_part(self.projection(u))
-        d_pen, d_sigma = self._test_parts(u, v)
-        theta_gamma = self.nitsche_theta * self.gamma_h
-        test = d_pen - theta_gamma * d_sigma
-        return (force / self.gamma_h * test - theta_gamma * self.sigma_n(u) * d_sigma) * self.ds
-
-    def hybrid_residual(self, u_old, u_new, v, velocity=None, reference=None):
-        """The hybrid step's contact terms: Phi from P_gamma at both ends, the derivatives
-        averaged along the step, sigma_n at the mean of its ends."""
-        step = u_new - u_old
-        d_pen, d_sigma = 0, 0
-        for s, w in CONTACT_POINTS:
-            parts = self._test_parts(u_old + s * step, v)
-            d_pen = d_pen + w * parts[0]
-            d_sigma = d_sigma + w * parts[1]
-        P_old, P_new = self.projection(u_old), self.projection(u_new)
-        force = hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
-        sigma_mean = (self.sigma_n(u_old) + self.sigma_n(u_new)) / 2
-        theta_gamma = self.nitsche_theta * self.gamma_h
-        test = d_pen - theta_gamma * d_sigma
-        return (force / self.gamma_h * test - theta_gamma * sigma_mean * d_sigma) * self.ds
-
     def current_area(self, u):
         """The contact area in the current configuration as a form: H(P_gamma(u)) times
         the change of area J |F^-T N| (Nanson's formula), over the reference Gamma_C."""
@@ -126,7 +148,24 @@ class FiniteContact(NitscheContact):
         stretch = ufl.det(F) * ufl.sqrt(ufl.dot(ufl.inv(F).T * self.n, ufl.inv(F).T * self.n))
         return ufl.conditional(ufl.gt(self.projection(u), 0), stretch, 0) * self.ds
 
-    def hybrid_state(self, u_old, u_new):
-        """The midpoint and Phi, P_gamma at the midpoint being the mean of its ends."""
-        P_old, P_new = self.projection(u_old), self.projection(u_new)
-        return (u_old + u_new) / 2, hybrid_contact_force(P_old, (P_old + P_new) / 2, P_new)
+
+class FinitePairContact(_FiniteTerms, PairContact):
+    """One half of a contact pair between hyperelastic bodies (docs/method.md section 15).
+
+    The gap is the pair's, -d = (u - T u) . n_c - g with the pairing's T, n_c and g
+    (:class:`~nitsche_dolfinx.pairs.PairContact`): affine in u within a step, with
+    D(-d)[v] = v . n_c on the slave side and -(T v) . n_c on the partner's
+    (:meth:`~nitsche_dolfinx.pairs.PairContact.partner_term`, unchanged). The normal stress
+    is the slave's nominal one, sigma_n(u) = (P(u) N) . n_c, and its test part
+    D sigma_n(u)[v] is the Gateaux derivative, as for a rigid obstacle
+    (:class:`FiniteContact`); every term is multiplied by the half's ``weight``.
+    The arguments are those of :class:`~nitsche_dolfinx.pairs.PairContact`, with the
+    first Piola-Kirchhoff stress for ``stress``.
+    """
+
+    def _weighted(self, form):
+        return self.weight * form
+
+    def _test_parts(self, u, v):
+        """The slave's parts: D(-d)(u)[v] = v . n_c and D sigma_n(u)[v]."""
+        return ufl.dot(v, self.n_c), gateaux(self.sigma_n, u, v)

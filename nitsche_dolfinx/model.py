@@ -31,7 +31,7 @@ from .contact import NitscheContact, PenaltyContact
 from .damping import RayleighDamping
 from .dirichlet import DirichletCondition
 from .expressions import has_text, vector_expression
-from .finite_contact import FiniteContact
+from .finite_contact import FiniteContact, FinitePairContact
 from .hyperelastic import averaged_stress, cauchy_stress, first_piola, strain_energy, von_mises_of
 from .mass import MassMatrix
 from .material import Material, MaterialConstants, sigma, von_mises
@@ -353,14 +353,13 @@ class ContactProblem:
         instead of with the closest point, with the contact normal n_c = direction: for
         a head-on collision, where it makes a pair of mirror-image bodies exactly one
         body on a rigid plane (docs/method.md section 11). Nitsche only; with the
-        problem's ``friction``, Coulomb friction on the relative slip.
+        problem's ``friction``, Coulomb friction on the relative slip. With a hyperelastic
+        material, the halves' terms are those of finite strain
+        (:class:`~nitsche_dolfinx.finite_contact.FinitePairContact`, docs/method.md
+        section 15).
         Returns the :class:`~nitsche_dolfinx.pairs.PairContact` halves.
         """
         require_choice(variant, CONTACT_PAIR_VARIANTS, "variant", "contact pair variant")
-        require(
-            not self.finite, "law", self.materials[0].law,
-            "contact between hyperelastic bodies is not implemented yet (rigid obstacles are)",
-        )  # fmt: skip
         require(
             self.method == "nitsche", "method", self.method,
             "contact between bodies is Nitsche contact (not penalty nor the mixed method)",
@@ -383,7 +382,8 @@ class ContactProblem:
             require(length > 0, "direction", unit.tolist(), "the direction must not be zero")
             unit = unit / length
         follow = unit is None if follow is None else bool(follow)
-        halves = pair_halves(self, tag_a, tag_b, variant, unit, follow)
+        kind = FinitePairContact if self.finite else PairContact  # docs/method.md section 15
+        halves = pair_halves(self, tag_a, tag_b, variant, unit, follow, kind)
         for half in halves:
             self.contacts.append(half)
             self.contact_tags.append(half.ds.subdomain_id())

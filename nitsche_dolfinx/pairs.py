@@ -840,8 +840,9 @@ class PairContact(NitscheContact):
 
 
 def pair_halves(
-    problem, tag_a: int, tag_b: int, variant: str, direction, follow: bool = True
-) -> list[PairContact]:
+    problem, tag_a: int, tag_b: int, variant: str, direction, follow: bool = True,
+    kind: type = PairContact,
+) -> list[PairContact]:  # fmt: skip
     """The biased halves of a contact pair of ``problem`` (a
     :class:`~nitsche_dolfinx.model.ContactProblem`) between the facets ``tag_a`` and
     ``tag_b``: one, slave ``tag_a``, with weight 1 (``"biased"``), or one per surface
@@ -850,7 +851,9 @@ def pair_halves(
     points; ``follow``: paired again as the surfaces slide (:meth:`Pairing.slid`).
     ``tag_a == tag_b``: self-contact, one half with weight 1/2 (each node of the surface
     is a slave, so that each touching pair of points is counted twice, as in the unbiased
-    variant), paired again at every step."""
+    variant), paired again at every step. ``kind``: the class of the halves
+    (:class:`PairContact`, or the finite-strain one of
+    :class:`~nitsche_dolfinx.finite_contact.FinitePairContact`)."""
     facets = {tag: problem.facets(tag) for tag in (tag_a, tag_b)}
     sides = [(tag_a, tag_b, direction)]
     if variant == "unbiased" and tag_a != tag_b:
@@ -860,7 +863,7 @@ def pair_halves(
     for slave, master, along in sides:
         pairing = Pairing(problem.V, facets[slave], facets[master], along)
         halves.append(
-            PairContact(
+            kind(
                 pairing,
                 problem.ds(slave),
                 problem.stress,

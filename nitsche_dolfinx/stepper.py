@@ -32,7 +32,7 @@ from .linear_solvers import LinearSolver
 from .model import ContactProblem
 from .obstacle_work import ObstacleWork
 from .pair_coupling import PairCoupling
-from .parameters import ParameterError, TimeStepping, require
+from .parameters import ParameterError, TimeStepping
 from .petsc_snes import SolverSettings
 from .schemes import HybridScheme, TimeScheme
 from .solver import SNESSolver, SolverError
@@ -68,7 +68,8 @@ def step_solver(
         reuse_jacobian: Solve the :class:`~nitsche_dolfinx.systems.AffineSystem` (the bulk
             is linear elastodynamics: its cell terms are affine in the unknown, and only
             the contact terms on Gamma_C change the Jacobian); False: assemble every
-            Jacobian in full.
+            Jacobian in full (with contact pairs, their coupling added), as at finite
+            strains.
         model: The model whose terms F holds (``problem``, or its friction law guarded by
             :class:`~nitsche_dolfinx.friction.GuardedNewton`).
         dirichlet_dofs: The local indices of the Dirichlet dofs (for contact pairs).
@@ -79,11 +80,11 @@ def step_solver(
     test = ufl.TestFunction(problem.V)
     F = scheme.residual(model, *state, test)
     if not reuse_jacobian or problem.finite:  # finite strains: no affine bulk to keep
-        require(
-            not problem.pairs, "reuse_jacobian", reuse_jacobian,
-            "contact between bodies assembles the Jacobian by parts: keep True",
-        )  # fmt: skip
-        system = FormSystem(F, w, bcs, mass_diagonal=_mass_diagonal(problem, scheme, state))
+        # contact pairs: their coupling added to the full Jacobian (docs/method.md
+        # section 15)
+        coupling = _pair_coupling(problem, scheme, F, state, test, dirichlet_dofs, model)
+        diagonal = _mass_diagonal(problem, scheme, state)
+        system = FormSystem(F, w, bcs, mass_diagonal=diagonal, coupling=coupling)
         return SNESSolver.for_system(system, settings)
     activity, facet_parts = None, None
     if problem.contacts:  # lets the solver skip the contact Jacobian out of contact

@@ -1,7 +1,8 @@
 """The algebraic system F(x) = 0 a Newton solver works on: its residual and its Jacobian,
 assembled into PETSc objects (docs/method.md section 8).
 
-- :class:`FormSystem`: any problem given as UFL forms, assembled in full at each call;
+- :class:`FormSystem`: any problem given as UFL forms, assembled in full at each call
+  (with the coupling of contact pairs, if any: a step at finite strain);
 - :class:`AffineSystem`: a step of linear elastodynamics with contact, whose cell terms
   are affine in the unknown: their Jacobian K is assembled once and their residual is
   a product with it, the facet (contact) Jacobian B is assembled where the contact is,
@@ -35,7 +36,7 @@ from .assembly import (
 )
 from .damping import DiagonalDamping
 from .facet_jacobian import ContactFacets, FacetJacobian
-from .jacobian_sum import JacobianSum
+from .jacobian_sum import JacobianSum, pattern_matrix
 
 __all__ = ["AffineSystem", "FormSystem", "StepForms"]
 
@@ -136,16 +137,29 @@ class FormSystem(_Base):
     """F(u) = 0 for the forms F and J (``ufl.derivative(F, u)`` by default), assembled in
     full at every call, with a diagonal matrix D added (a lumped mass: F(u) + D u, J + D).
 
+    With the ``coupling`` of contact pairs, the residual gets their partner-tested terms
+    T^T G and the Jacobian their coupling terms (on every facet of the slave surfaces),
+    whose growth widens the Jacobian's sparsity: a step at finite strain between bodies
+    (docs/method.md section 15).
+
     Args:
         F: The residual, linear in the test function.
         u: The unknown Function.
         bcs: Dirichlet conditions on ``u``.
         J: The Jacobian form.
         mass_diagonal: D as a PETSc vector (FFCx 0.5 cannot compile vertex quadrature).
+        coupling: The :class:`~nitsche_dolfinx.pair_coupling.PairCoupling` of the contact
+            pairs, or None.
     """
 
-    def __init__(self, F: ufl.Form, u, bcs=(), J=None, mass_diagonal=None):
+    def __init__(self, F: ufl.Form, u, bcs=(), J=None, mass_diagonal=None, coupling=None):
         super().__init__(F, u, bcs, J, mass_diagonal)
+        self.coupling = coupling
+
+    def new_coefficients(self) -> None:
+        """Before a solve: the partners of the state across contact pairs."""
+        if self.coupling is not None:
+            self.coupling.update()
 
     def create_matrix(self, matrix_type: str | None) -> PETSc.Mat:
         """A matrix with the sparsity of J, of PETSc type ``matrix_type``."""
@@ -157,6 +171,8 @@ class FormSystem(_Base):
         """b = F(x) (``zero``: x is zero; ``conditions``: the Dirichlet rows replaced by
         x - g, else F's own, where the reactions are)."""
         self._take(x)
+        if self.coupling is not None:  # the partner of the iterate
+            self.coupling.update(x)
         with b.localForm() as b_local:
             b_local.set(0.0)
         self.F_forms.assemble_vector(b)
@@ -166,18 +182,38 @@ class FormSystem(_Base):
             add_diagonal_product(b, self._D, x)
         if self._damped is not None:
             self._damped.add_offset(b)
+        if self.coupling is not None:
+            self.coupling.add_residual(b)
         if conditions:
             compat.set_bc(b, self.bcs, x, -1.0)
 
     def update_jacobian(self, A: PETSc.Mat, P: PETSc.Mat | None = None) -> bool:
-        """A = J at ``u``; always a change."""
+        """A = J at ``u`` (+ the coupling of contact pairs, whose growth widens A and P);
+        always a change."""
+        self.grew = False
+        if self.coupling is not None:
+            self.coupling.jacobian_changed()
         A.zeroEntries()
         self.J_forms.assemble_matrix(A, self.bcs)
         A.assemble()
         if self._D_bc is not None:
             A.setDiagonal(self._D_bc, addv=PETSc.InsertMode.ADD)
             A.assemble()
+        if self.coupling is None:
+            return True
+        if self.coupling.growth is not None:  # pairs in contact for the first time
+            # (A assembled first: PETSc drops the unused entries of a new matrix)
+            pattern = pattern_matrix(self.coupling.growth, A)
+            A.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+            pattern.destroy()
+            if P is not None:  # the lagged copy: A's sparsity, A's values
+                A.copy(P, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+            self.grew = True
+        self.coupling.add_jacobian(A)
         return True
+
+    def petsc_objects(self) -> list:
+        return [] if self.coupling is None else self.coupling.petsc_objects()
 
 
 class StepForms(NamedTuple):

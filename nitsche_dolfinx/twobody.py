@@ -256,6 +256,7 @@ def two_bodies_problem(
     mass: str = "consistent",
     offset: float = 0.0,
     follow: bool | None = None,
+    law: str = "linear",
 ):
     """Two disks (``dim=2``, plane strain) or two balls (``dim=3``) of the impact test
     (radius 20, lambda = mu = 20, rho = 1), mirror images of each other, moving towards
@@ -264,15 +265,17 @@ def two_bodies_problem(
     plane with gamma0 / 2, docs/method.md section 11); else with closest points.
     ``mass``: that of :class:`~nitsche_dolfinx.model.ContactProblem`. ``offset``: the
     bodies' centres that far apart along x (an off-centre hit; 0: head-on). ``follow``:
-    that of :meth:`~nitsche_dolfinx.model.ContactProblem.add_contact_pair`.
+    that of :meth:`~nitsche_dolfinx.model.ContactProblem.add_contact_pair`. ``law``: the
+    material's (:class:`~nitsche_dolfinx.material.Material`; a hyperelastic one makes the
+    pair one between hyperelastic bodies, docs/method.md section 15).
 
     Returns:
         ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
     """
     mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm, offset)
     problem = ContactProblem(
-        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), degree, gamma0, nitsche_theta,
-        gamma0_scaling=gamma0_scaling, mass=mass,
+        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0, law=law), degree, gamma0,
+        nitsche_theta, gamma0_scaling=gamma0_scaling, mass=mass,
     )  # fmt: skip
     down = np.zeros(dim)
     down[-1] = -1.0
