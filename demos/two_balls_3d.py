@@ -29,7 +29,10 @@
 # - hit off-centre (`--offset D --no-compare`; `--pairing closest` for an oblique
 #   force): the moment of the momenta about the nodes' reference positions is kept,
 #   the angular momentum about their current positions to the size of the motion
-#   (docs/method.md section 4).
+#   (docs/method.md section 4);
+# - make both bodies hyperelastic (`--law neo_hookean`, finite strains, docs/method.md
+#   section 15): the pair's terms are then those of finite strain, and the pair along
+#   the axis is still one body on the plane with $\gamma_0/2$ (the disks: to 1e-14).
 #
 # With the hybrid scheme and $\Theta = 1$, $E_\Theta$ never increases.
 
@@ -44,6 +47,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
 from nitsche_dolfinx.arguments import (
     add_method_arguments,
+    add_parameter_argument,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
@@ -80,6 +84,7 @@ def make_parser(dim: int, body: str) -> argparse.ArgumentParser:
         help="distance of the centres across the collision axis (an off-centre hit)",
     )  # fmt: skip
     parser.add_argument("--variant", choices=("unbiased", "biased"), default="unbiased")
+    add_parameter_argument(parser, "--law")
     parser.add_argument(
         "--pairing", choices=("axis", "closest"), default="axis",
         help="pair the surfaces along the collision axis, or with closest points",
@@ -120,7 +125,7 @@ def run_pair(args, dim: int, snapshot: Snapshot):
         dim=dim, mesh_size=args.mesh_size, v0=args.v0, gap=args.gap, degree=args.degree,
         gamma0=args.gamma0, nitsche_theta=args.nitsche_theta, variant=args.variant,
         along_axis=args.pairing == "axis", gamma0_scaling=args.gamma0_scaling,
-        mass=scheme_mass(args), offset=args.offset,
+        mass=scheme_mass(args), offset=args.offset, law=args.law,
     )  # fmt: skip
     for tag in (UPPER_BODY, LOWER_BODY):
         problem.add_body(tag, cells)
@@ -137,8 +142,9 @@ def run_on_plane(args, dim: int):
     center[-1] = 20.0 + args.gap / 2
     mesh, tags = (ball_mesh if dim == 3 else disk_mesh)(args.mesh_size, 2, 20.0, center)
     problem = ContactProblem(
-        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0), args.degree, args.gamma0 / 2,
-        args.nitsche_theta, gamma0_scaling=args.gamma0_scaling, mass=scheme_mass(args),
+        mesh, tags, Material.from_lame(20.0, 20.0, rho=1.0, law=args.law), args.degree,
+        args.gamma0 / 2, args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
+        mass=scheme_mass(args),
     )  # fmt: skip
     up = [0.0] * dim
     up[-1] = 1.0

@@ -64,6 +64,16 @@ class _FiniteTerms:
     def _weighted(self, form):
         return form
 
+    # the small-strain split of the terms (a test projection linear in v, terms affine in
+    # u) does not exist here: the test part depends on u (docs/method.md section 15)
+    def _no_split(self, *args, **kwargs):
+        raise NotImplementedError(
+            "the contact terms at finite strain have no affine part nor a test projection "
+            "independent of u (docs/method.md section 15): use residual or hybrid_residual"
+        )
+
+    test_projection = affine_terms = force_terms = contact_term = _no_split
+
     def residual(self, u, v, velocity=None, reference=None):
         """The contact terms of B(u)(v) at one time level."""
         force = positive_part(self.projection(u))

@@ -79,6 +79,13 @@ CASES = {
         ["two_disks_2d.py", "--t-end", "2", *COARSE_FLAGS, "--no-compare"],
         "",
     ),
+    "two_disks_2d_neo_hookean": (
+        "two_disks_2d_neo_hookean.toml",
+        {"t_end = 20.0": "t_end = 2.0", **COARSE},
+        ["two_disks_2d.py", "--law", "neo_hookean", "--t-end", "2", *COARSE_FLAGS,
+         "--no-compare"],
+        "",
+    ),
     "sliding_disks_2d": (
         "sliding_disks_2d.toml",
         {"t_end = 14.0": "t_end = 8.0", "dt = 0.1": "dt = 0.5",

@@ -215,6 +215,28 @@ def test_two_disks_demo_contract(tmp_path):
     assert times[-1] == pytest.approx(2.0)
 
 
+def test_two_disks_demo_hyperelastic(tmp_path):
+    """`--law neo_hookean` reaches the pair: its finite-strain terms along the axis are one
+    neo-Hookean disk on the plane of symmetry with gamma0 / 2 (docs/method.md section 15),
+    and E_Theta does not rise."""
+    out = tmp_path / "disks"
+    result = run_demo(
+        "two_disks_2d.py", "--law", "neo_hookean", "--t-end", "3", "--no-plot", "--quiet",
+        "--out", str(out),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
+    # as in test_two_disks_demo_contract: two computations to Newton's tolerance (measured
+    # 1e-14)
+    assert float(line.split("differs by ")[1].split()[0]) < 1e-8
+    history = read_history(str(out / "history.csv"))
+    assert history["contact_force"].max() > 0
+    energy = history["energy_theta"]
+    # the hybrid step's E_Theta rises at most by Newton's tolerance, 1e-10 of the equation's
+    # scale (docs/method.md section 15; measured 3.6e-11)
+    assert np.diff(energy).max() < 1e-9 * energy[0]
+
+
 @pytest.mark.skipif(MPIRUN is None, reason="needs mpirun")
 def test_two_disks_demo_under_mpirun_matches_serial(tmp_path):
     """The demo on two ranks, one disk on each (the pairs' partners all on the other
