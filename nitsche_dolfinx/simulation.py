@@ -422,8 +422,8 @@ class _Run:
             hint = sim.problem.solver_hint()
             hint = f"; if this recurs, {hint}" if hint else ""
             self.progress.message(
-                f"note: Newton failed on the step to t = {t_target:.6g}; the step is cut in "
-                f"halves (history.csv column step_cuts){hint}",
+                f"note: the step to t = {t_target:.6g} failed ({failed.reason_name}); it is "
+                f"cut in halves (history.csv column step_cuts){hint}",
                 file=sys.stderr,
             )
         self.warned_cut = True
