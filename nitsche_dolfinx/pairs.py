@@ -12,7 +12,10 @@ NitscheContact`, the hybrid switch included) with
 
     u_n = (u - T u) . n_c,   g = (X(pi(x)) - X(x)) . n_c,   n_c = -(outer normal of Gamma_2),
 
-X the reference positions, the normal taken at pi(x), and the test projection
+X the reference positions, the normal taken at pi(x). A slave node beyond an end of
+Gamma_2 (closest points: its closest point on a side of its facet that no other facet
+of Gamma_2 has, the node out across it) faces no point of Gamma_2 and has no partner:
+it is its own (u - T u = 0), with a gap of a facet's size. The test projection is
 P_Thgamma(v) = (v - T v) . n_c - Theta gamma_h sigma_n(v). The part of the residual
 tested by T v is assembled as a vector G on the slave side and added as T^T G; within a
 step T and n_c are fixed, and the Jacobian is exact for them: with w~ = T w the partner
@@ -162,6 +165,8 @@ class _MasterSurface:
         )
         cells, origins, edges = [], [], []
         self._locals = []  # each facet's index among its cell's facets
+        vertex_dofs = [int(self.element.entity_dofs[0][v][0]) for v in range(len(reference))]
+        self._vertex_dofs = []  # each facet's vertices, as dofs of its cell, in xi's order
         for facet in facets:
             cell = int(f2c.links(facet)[0])
             if cell >= owned_cells:
@@ -170,6 +175,7 @@ class _MasterSurface:
             vertices = reference[facet_vertices[local]]
             cells.append(cell)
             self._locals.append(local)
+            self._vertex_dofs.append([vertex_dofs[v] for v in facet_vertices[local]])
             origins.append(vertices[0])
             edges.append((vertices[1:] - vertices[0]).T)  # (tdim, fdim)
         count = len(cells)
@@ -309,6 +315,48 @@ class _MasterSurface:
             sides = None if facing is None else facing[:2]
             normal = self._closest_normal(facet, xi, x[chosen], points, sides)
         return distance, facet, xi, normal
+
+    def open_sides(self, comm) -> np.ndarray:
+        """Which sides of each facet are an end of the surface: (facets, fdim + 1), side k
+        the one opposite the facet's vertex k (where its barycentric coordinate lambda_k
+        vanishes: lambda_0 = 1 - sum(xi), lambda_k = xi_k), an end where no other facet of
+        the surface has it (a vertex of a curve, an edge of a surface); collective."""
+        fdim, count = self.edges.shape[2], len(self.cells)
+        if not fdim:  # (1D: the surface is a point, it has no sides)
+            return np.zeros((count, 1), dtype=bool)
+        dofs = np.asarray(self._vertex_dofs, dtype=np.int64).reshape(count, fdim + 1)
+        local = np.take_along_axis(self.dofs, dofs, axis=1).astype(np.int32).ravel()
+        vertices = self.index_map.local_to_global(local).reshape(count, fdim + 1)
+        sides = np.sort(
+            np.stack([np.delete(vertices, k, axis=1) for k in range(fdim + 1)], axis=1), axis=2
+        )  # (facets, fdim + 1, fdim): each side by its vertices' global indices
+        every = np.concatenate(comm.allgather(sides.reshape(-1, fdim)))
+        keys, counts = np.unique(every, axis=0, return_counts=True)
+        once = {tuple(key) for key in keys[counts == 1]}
+        return np.array([tuple(side) in once for side in sides.reshape(-1, fdim)],
+                        dtype=bool).reshape(count, fdim + 1)  # fmt: skip
+
+    def beyond_open_side(self, facet, xi, points, open_sides) -> np.ndarray:
+        """Whether each point lies beyond an end of the surface: its closest point x(xi) is
+        on a side of the facet that is an end (``open_sides``, :meth:`open_sides`), and the
+        point's offset from it, along the facet's tangent plane, leads out across that
+        side by more than :data:`_NORMAL_BLEND` of the facet (the barycentric coordinate
+        of the opposite vertex, continued linearly to the point's tangential offset, is
+        below -_NORMAL_BLEND). Such a point faces no point of the surface (docs/method.md
+        section 11)."""
+        if not len(facet) or not xi.shape[1]:  # (1D: a point has no sides)
+            return np.zeros(len(facet), dtype=bool)
+        x, tangent = self.points(facet, xi)
+        metric = np.einsum("ndf,ndg->nfg", tangent, tangent)
+        step = _solve_small(metric, metric, np.einsum("ndf,nd->nf", tangent, points - x))
+        reach = xi + step
+        barycentric = np.hstack([1.0 - reach.sum(axis=1, keepdims=True), reach])
+        out = open_sides[facet] & (barycentric < -_NORMAL_BLEND)
+        return _on_edge(xi) & out.any(axis=1)
+
+    def facet_normals(self, facet: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """The facets' own outer normals at their points xi (in the current configuration)."""
+        return self._outer_normal(facet, xi, self.points(facet, xi)[0])
 
     def own_normals(self, nodes: np.ndarray):
         """For nodes of the surface itself (global indices of ``index_map``): the sum of
@@ -511,9 +559,39 @@ def _surface_nodes(V, facets: np.ndarray):
     return nodes, np.array([coordinates[int(n)] for n in nodes]).reshape(-1, gdim)
 
 
+def _edge_nodes(V, facets: np.ndarray, comm) -> np.ndarray:
+    """The nodes inside the edges of ``facets`` (P2: each edge's midpoint), each with the
+    two vertices of its edge: rows (node, vertex, vertex) of global indices, those of
+    every rank; none for P1 or in 1D (collective)."""
+    mesh = V.mesh
+    tdim = mesh.topology.dim
+    fdim = tdim - 1
+    cell_type = _basix_cell(mesh)
+    element = _lagrange(cell_type, compat.element_degree(V))
+    rows = []
+    if fdim >= 1 and any(len(dofs) for dofs in element.entity_dofs[1]):
+        topology = basix.topology(cell_type)
+        f2c, c2f = mesh.topology.connectivity(fdim, tdim), mesh.topology.connectivity(tdim, fdim)
+        vertex = [int(element.entity_dofs[0][v][0]) for v in range(len(topology[0]))]
+        dofmap = compat.dofmap_array(V)
+        for facet in facets:
+            cell = int(f2c.links(facet)[0])
+            local = int(np.flatnonzero(c2f.links(cell) == facet)[0])
+            corners = set(topology[fdim][local])
+            for edge, ends in enumerate(topology[1]):
+                if set(ends) <= corners:
+                    for dof in element.entity_dofs[1][edge]:
+                        rows.append(dofmap[cell][[dof, vertex[ends[0]], vertex[ends[1]]]])
+    local = np.asarray(rows, dtype=np.int32).reshape(-1)
+    rows = V.dofmap.index_map.local_to_global(local).reshape(-1, 3)
+    every = np.concatenate(comm.allgather(rows.astype(np.int64))).reshape(-1, 3)
+    return np.unique(every, axis=0)
+
+
 class Pairing:
     """The pairing of the nodes of Gamma_1 (slave facets) with Gamma_2 (master facets),
-    under MPI: with the closest point of Gamma_2 and its normal, or, given a unit
+    under MPI: with the closest point of Gamma_2 and its normal (none beyond an end of
+    Gamma_2: :meth:`_MasterSurface.beyond_open_side`), or, given a unit
     ``direction`` d, with the point where the line through the node along d meets Gamma_2,
     and n_c = d. Made in the reference configuration, and again by :meth:`pair` in that of
     a displacement (when the surfaces have slid, :meth:`slid`).
@@ -541,6 +619,11 @@ class Pairing:
         self._every_node = np.concatenate(comm.allgather(global_nodes))
         self._every_position = np.vstack(comm.allgather(self._positions)).reshape(-1, gdim)
         self._master = _MasterSurface(V, master_facets)
+        # the ends of Gamma_2, beyond which a node paired by closest points faces nothing
+        self._open_sides, self._edge_nodes = None, None
+        if direction is None and not self.self_contact:
+            self._open_sides = self._master.open_sides(comm)
+            self._edge_nodes = _edge_nodes(V, slave_facets, comm)
         self.normal, self.gap_vector = fem.Function(V), fem.Function(V)
         self.displacement = fem.Function(V)
         self._scale = fem.Function(V)  # the size of each slave node's partner facet
@@ -579,9 +662,21 @@ class Pairing:
             raise ValueError("the master surface of a contact pair has no facet")
         winner = _lowest_rank(comm, paired & (distance == nearest))
         mine = np.flatnonzero(winner == comm.rank)
+        alone = np.zeros(0, dtype=np.int64)  # the nodes without a partner that this rank writes
         if self.self_contact:
             beyond = master.beyond_end(facet[mine], xi[mine], every_point[mine], facing[:2])
             mine, alone = self._alone(mine, paired, outer, facing[0], beyond)
+            outward, _, size = facing
+            alone_normal, alone_size = outward[alone], size[alone]
+        elif self._open_sides is not None:  # beyond an end of Gamma_2: no partner
+            beyond = master.beyond_open_side(
+                facet[mine], xi[mine], every_point[mine], self._open_sides
+            )
+            beyond = self._beyond_with_edges(mine, beyond)
+            alone, mine = mine[beyond], mine[~beyond]
+            # the facet's own normal: the plane of the surface going on past its end
+            alone_normal = -master.facet_normals(facet[alone], xi[alone])
+            alone_size = master.size[facet[alone]]
         facet, xi = facet[mine], xi[mine]
 
         # T's rows: the basis functions of the partner's cell at the partner point; those
@@ -610,8 +705,7 @@ class Pairing:
         partner = master.points(facet, xi, displaced=False)[0]  # its reference position
         normal, gap = -outer[mine], partner - every_position[mine]
         scale = master.size[facet]
-        if self.self_contact:
-            outward, _, size = facing
+        if len(alone):
             lonely = (every_node[alone][:, None] * bs + component).ravel()
             T.setValuesIJV(  # each its own partner: u - T u = 0, a gap of a facet's size
                 np.arange(len(lonely) + 1, dtype=PETSc.IntType), lonely.astype(PETSc.IntType),
@@ -619,9 +713,9 @@ class Pairing:
                 lonely.astype(PETSc.IntType),
             )  # fmt: skip
             rows = np.concatenate([rows, lonely])
-            normal = np.vstack([normal, outward[alone]])
-            gap = np.vstack([gap, size[alone, None] * outward[alone]])
-            scale = np.concatenate([scale, size[alone]])
+            normal = np.vstack([normal, alone_normal])
+            gap = np.vstack([gap, alone_size[:, None] * alone_normal])
+            scale = np.concatenate([scale, alone_size])
         T.assemble()
         if self.T is not None:
             self.T.destroy()
@@ -640,6 +734,24 @@ class Pairing:
             vector.destroy()
         self._paired_relative = self._relative(self.displacement)
         self.generation += 1
+
+    def _beyond_with_edges(self, mine: np.ndarray, beyond: np.ndarray) -> np.ndarray:
+        """Of the nodes this rank paired (``mine``), those without a partner: those
+        ``beyond`` an end of Gamma_2 and, for P2, the midpoints of the edges of Gamma_1
+        with such a vertex (collective). A gap g at a vertex without a partner and nearly
+        0 at the rest of its facet would interpolate to -g/8 at 3/4 of its edge (the
+        vertex's basis function there); with the midpoint g too, it interpolates to
+        g (1 - phi), phi <= 1 the basis functions of the nodes with partners
+        (docs/method.md section 11)."""
+        if not len(self._edge_nodes):
+            return beyond
+        lonely = np.zeros(len(self._every_node), dtype=np.int8)
+        lonely[mine[beyond]] = 1
+        self.V.mesh.comm.Allreduce(MPI.IN_PLACE, lonely, op=MPI.MAX)
+        place = _places(self._every_node, self._edge_nodes.ravel())[0].reshape(-1, 3)
+        ends = (lonely[place[:, 1]] == 1) | (lonely[place[:, 2]] == 1)
+        lonely[place[ends, 0]] = 1
+        return lonely[mine] == 1
 
     def _alone(self, mine: np.ndarray, paired, outer: np.ndarray, outward, beyond):
         """Self-contact: of the nodes this rank paired (``mine``), those whose contact

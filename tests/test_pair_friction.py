@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import ufl
+from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
@@ -16,7 +17,7 @@ from nitsche_dolfinx.meshes import bar_mesh
 from nitsche_dolfinx.model import ContactProblem
 from nitsche_dolfinx.parameters import ParameterError
 from nitsche_dolfinx.schemes import make_scheme
-from nitsche_dolfinx.twobody import BLOCK, block_on_slab_problem
+from nitsche_dolfinx.twobody import BLOCK, SLAB, block_on_slab_problem, body_velocities
 
 DT = 0.05
 MU, V0, G = 0.5, 1.0, 1.0  # a rigid block stops after v0^2 / (2 mu g) = 1, at t = 2
@@ -88,6 +89,56 @@ def test_block_on_slab_stops_like_on_a_rigid_plane(scheme):
     assert np.diff(controlled).max() <= 1e-9
 
 
+@pytest.mark.parametrize("degree", [1, 2])
+def test_slab_nodes_beyond_the_block_have_no_partner(degree):
+    """The slab's top as the slave (the unbiased pair's second half), paired where the
+    block has slid by 0.1 and sunk 2e-6 into the slab: the nodes under the block see that
+    penetration; those beyond its ends, whose closest point is a corner of the block's
+    bottom, face no point of it and are their own partners, a facet's size (0.25) apart
+    (docs/method.md section 11); for P2 so is the midpoint of an edge with such a vertex
+    (x = -0.875), so that the gap interpolated on that edge is not negative. Before, their
+    normal ran along the line to the corner, turned inwards by the block's plane 2e-6
+    below them, and made their distance to the corner a penetration: 0.1 to 3.4."""
+    problem, cells = block_on_slab_problem(friction=None, variant="unbiased", degree=degree)
+    pairing = problem.pairs[1].pairing
+    assert pairing.generation == 1
+    u = body_velocities(problem, cells, {BLOCK: [0.1, -3e-6], SLAB: [0.0, 0.0]})
+    pairing.pair(u)
+    partner = fem.Function(problem.V)
+    pairing.apply(u, partner)
+    normal = pairing.normal.x.array.reshape(-1, 2)
+    opening = pairing.gap_vector.x.array - (u.x.array - partner.x.array)
+    opening = np.einsum("nd,nd->n", opening.reshape(-1, 2), normal)
+    x = problem.V.tabulate_dof_coordinates()[:, 0]
+    slave = np.linalg.norm(normal, axis=1) > 0
+    under = slave & (np.abs(x - 0.1) < 1.0)
+    if degree == 2:
+        under &= ~np.isclose(x, -0.875)
+    assert (under.sum(), (slave & ~under).sum()) == ((8, 17) if degree == 1 else (15, 34))
+    assert np.abs(opening[under] + 2e-6).max() < 1e-12
+    assert np.allclose(opening[slave & ~under], 0.25, rtol=1e-10, atol=0)  # (gmsh: 7e-13)
+
+
+def test_unbiased_pair_stops_the_block_like_the_biased_one():
+    """The unbiased pair (both surfaces slaves, weight 1/2 each; the slab's nodes beyond
+    the block have no partner): the block stops after v0^2 / (2 mu g), the friction's
+    work is the kinetic energy lost, and E_Theta less the pairings' changes plus the
+    friction's work never rises (hybrid, Theta = 1)."""
+    pair, _ = run_pair(variant="unbiased")
+    distance = pair["u_block"][-1]
+    assert abs(pair["u_block"][-1] - pair["u_block"][-5]) < 1e-3 * distance
+    assert distance == pytest.approx(V0**2 / (2 * MU * G), rel=0.02)
+    lost = pair["kinetic"][0] - pair["kinetic"][-1]
+    assert pair["friction_dissipation"].sum() == pytest.approx(lost, rel=0.01)
+    controlled = (
+        pair["energy_theta"] - pair["pairing_energy"] + np.cumsum(pair["friction_dissipation"])
+    )
+    assert np.diff(controlled).max() <= 1e-9
+    # the contact force stays of the order of the weight's pressure times the stiffness
+    # 1 / gamma_h at the sag (not 1e4 and more, as the wrong gaps made it)
+    assert pair["contact_force"].max() < 1e3
+
+
 @pytest.mark.parametrize("scheme", [{"name": "cn"}, {"name": "newmark", "beta": 0.5, "gamma": 1.0}])
 def test_other_schemes_stop_the_block_where_the_plane_does(scheme):
     pair, _ = run_pair(scheme)
@@ -138,9 +189,10 @@ def test_pair_friction_refusals():
 
 
 @pytest.mark.mpi
-def test_parallel_pair_friction_matches_serial():
-    parallel, _ = run_pair(t_end=1.0, comm=MPI.COMM_WORLD)
-    serial, _ = run_pair(t_end=1.0, comm=MPI.COMM_SELF)
+@pytest.mark.parametrize("variant", ["biased", "unbiased"])
+def test_parallel_pair_friction_matches_serial(variant):
+    parallel, _ = run_pair(t_end=1.0, comm=MPI.COMM_WORLD, variant=variant)
+    serial, _ = run_pair(t_end=1.0, comm=MPI.COMM_SELF, variant=variant)
     for name in ("u_block", "kinetic", "energy_theta", "friction_dissipation", "contact_force"):
         scale = np.abs(serial[name]).max()
         assert np.abs(parallel[name] - serial[name]).max() <= 1e-8 * scale, name
