@@ -119,7 +119,7 @@ def _boundary_facets(mesh) -> np.ndarray:
 class _FacetGeometry:
     """The vertices of some boundary facets (shape (facets, vertices, 3)), their outward
     unit normals from the vertices (of the straight facet, on curved cells too) and the
-    extent of the mesh (the largest |coordinate| on any rank)."""
+    extent of the mesh (the largest abs(coordinate) on any rank)."""
 
     def __init__(self, mesh, facets: np.ndarray):
         tdim = mesh.topology.dim
@@ -224,12 +224,12 @@ def _vector(values, what: str) -> np.ndarray:
 
 class OnPlane:
     """Chooses the boundary facets whose vertices all lie on a plane (a line in 2D, a
-    point in 1D): |(x - point) . normal| <= tolerance.
+    point in 1D): abs((x - point) . normal) <= tolerance.
 
     Args:
         point: A point of the plane.
         normal: A normal of the plane (any length but zero).
-        tolerance: The distance allowed; default 1e-8 times the largest |coordinate| of
+        tolerance: The distance allowed; default 1e-8 times the largest abs(coordinate) of
             the mesh.
     """
 
@@ -273,7 +273,7 @@ class NormalWithin:
 
 class InBox:
     """Chooses the boundary facets whose vertices all lie in the box ``lower <= x <=
-    upper`` (widened by ``tolerance``, default 1e-8 times the mesh's largest |coordinate|).
+    upper`` (widened by ``tolerance``, default 1e-8 times the mesh's largest abs(coordinate)).
     """
 
     def __init__(self, lower, upper, tolerance: float | None = None):

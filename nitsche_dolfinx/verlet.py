@@ -1,7 +1,7 @@
 """The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md
 section 12): with a diagonal mass, a step is one product with the matrix of the affine
 terms, one assembly of the contact force on Gamma_C and one division, without Newton and
-without a linear solve.
+without a linear solve::
 
     u^{n+1} = u^n + tau v^n + tau^2/2 a^n
     D a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
