@@ -81,6 +81,7 @@ class QuadratureContact:
         local -= self._force.array_r
 
     def destroy(self) -> None:
+        """Free the PETSc objects (this rank's own: not collective)."""
         for obj in (self._C, self._Bt, self._u, self._points, self._force):
             obj.destroy()
 

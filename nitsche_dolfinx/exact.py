@@ -29,7 +29,9 @@ __all__ = [
     "two_bars_errors",
 ]
 
+#: The period in time of the bar's exact solution.
 BAR_PERIOD = 3.0
+#: The bar's energy, kinetic + elastic, the same at every time (all elastic at t = 0).
 BAR_ENERGY = 1.0 / 8.0
 
 

@@ -242,6 +242,7 @@ class OnPlane:
         self.tolerance = tolerance
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether each facet of ``geometry`` lies on the plane (a bool per facet)."""
         tolerance = 1e-8 * geometry.extent if self.tolerance is None else self.tolerance
         distance = np.abs((geometry.vertices - self.point) @ self.normal)
         return (distance <= tolerance).all(axis=1)
@@ -267,6 +268,8 @@ class NormalWithin:
         self.angle = float(angle)
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether the outward normal of each facet of ``geometry`` is within the angle
+        (a bool per facet)."""
         cosine = np.clip(geometry.normals @ self.direction, -1.0, 1.0)
         return np.degrees(np.arccos(cosine)) <= self.angle + 1e-9
 
@@ -283,6 +286,7 @@ class InBox:
         self.tolerance = tolerance
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether each facet of ``geometry`` lies in the box (a bool per facet)."""
         tolerance = 1e-8 * geometry.extent if self.tolerance is None else self.tolerance
         vertices = geometry.vertices
         inside = (vertices >= self.lower - tolerance) & (vertices <= self.upper + tolerance)

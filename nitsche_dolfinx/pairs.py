@@ -810,6 +810,7 @@ class Pairing:
         target.x.scatter_forward()
 
     def destroy(self) -> None:
+        """Free T and the work vector (collective)."""
         self.T.destroy()
         self._partner_work.destroy()
 
