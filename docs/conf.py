@@ -26,3 +26,22 @@ html_theme = "furo"
 autodoc_member_order = "bysource"
 napoleon_use_ivar = True
 html_extra_path = ["_ext/index.html"]
+
+
+def _plain_attribute_docstrings(app, what, name, obj, options, lines):
+    """Napoleon reads the first line of the docstring of a data, attribute or property as
+    ``type: description`` (``#: Facet tags: the bottom ...`` showed "Type: Facet tags");
+    the package writes no type there, so these are read as any other docstring."""
+    from sphinx.ext.napoleon import _process_docstring
+
+    plain = "object" if what in ("attribute", "data", "property") else what
+    _process_docstring(app, plain, name, obj, options, lines)
+
+
+def setup(app):
+    from sphinx.ext.napoleon import _process_docstring
+
+    for listener in list(app.events.listeners["autodoc-process-docstring"]):
+        if listener.handler is _process_docstring:
+            app.disconnect(listener.id)
+    app.connect("autodoc-process-docstring", _plain_attribute_docstrings)
