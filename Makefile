@@ -11,7 +11,7 @@ export MPLBACKEND := Agg
 export OPENBLAS_NUM_THREADS := 1
 PY = $(shell cat .python-path)
 
-.PHONY: setup demo test test-serial test-mpi lint clean
+.PHONY: setup demo test test-serial test-mpi lint docs docs-check clean
 
 setup:
 	@scripts/setup.sh > .python-path.tmp && tail -n 1 .python-path.tmp > .python-path && rm -f .python-path.tmp
@@ -41,5 +41,20 @@ lint:
 	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks meshes scripts
 	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks meshes scripts
 
+# The documentation site (docs/conf.py): the README, docs/*.md, the demos and the API
+# reference, into _site/html; a warning fails the build.
+docs: setup
+	@test -e /usr/share/javascript/mathjax/MathJax.js || \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libjs-mathjax)
+	$(PY) -m pip install --quiet sphinx myst-nb jupytext furo sphinx-argparse
+	$(PY) -m sphinx -W --keep-going -E -q -c docs -b html . _site/html
+
+# The built site in headless Chromium: console errors, images, links, formulas, search.
+docs-check: docs
+	@command -v chromedriver > /dev/null && $(PY) -c "import selenium" 2> /dev/null || \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	   chromium chromium-driver python3-selenium)
+	$(PY) scripts/check_site.py _site/html
+
 clean:
-	rm -rf out .pytest_cache .python-path .setup-stamp
+	rm -rf out .pytest_cache .python-path .setup-stamp _site

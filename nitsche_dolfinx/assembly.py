@@ -193,4 +193,6 @@ class CellResidualAtZero:
             matrix.multAdd(compat.petsc_vector(function), b, b)
 
     def petsc_objects(self) -> list:
+        """Its PETSc objects, for the system that holds it to destroy: the vector of the
+        rest and the matrices dF_cell / ds."""
         return [self._rest_vector] + [matrix for _, matrix, _ in self._terms]

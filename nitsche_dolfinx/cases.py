@@ -175,7 +175,7 @@ def bar_convergence_level(
         ((sum_n tau ||e^n||^2)^(1/2) in L2 and the H1 seminorm,
         :class:`~nitsche_dolfinx.exact.BarSpaceTimeErrors`), ``error_pressure`` and
         ``error_stress`` (lambda_h and sigma_n(u_h) at x = 0 in l2(tau)),
-        ``error_energy`` (max_n |E^n - 1/8|), ``newton_iterations`` (per step) and
+        ``error_energy`` (max_n abs(E^n - 1/8)), ``newton_iterations`` (per step) and
         ``wall_seconds``.
     """
     start = time.perf_counter()

@@ -33,7 +33,13 @@ from .parameters import OutputParameters
 from .reports import written_to
 from .schema import describe
 
-__all__ = ["main"]
+__all__ = ["argument_parser", "main"]
+
+
+def argument_parser() -> argparse.ArgumentParser:
+    """The parser of the ``nitsche-dolfinx`` command (its reference in the documentation
+    site is made from it)."""
+    return _parser()[0]
 
 
 def _parser() -> tuple[argparse.ArgumentParser, argparse.ArgumentParser]:

@@ -56,9 +56,9 @@ def heaviside(x):
 def ball_projection(x, radius):
     """[x]_r: the projection of the vector ``x`` onto the closed ball of radius r >= 0.
 
-    Written as ``k x`` with a scalar factor k, 1 inside the ball and r/|x| outside,
+    Written as ``k x`` with a scalar factor k, 1 inside the ball and r/norm(x) outside,
     so that ``ufl.derivative`` gives the semismooth Jacobian: the identity inside
-    (stick, zero slip included), the tangent projection scaled by r/|x| outside (slip).
+    (stick, zero slip included), the tangent projection scaled by r/norm(x) outside (slip).
     Where r = 0 (no contact, or mu_f = 0) the factor and its derivative are exactly
     zero: no 0/0 is ever selected, and [x]_0 = 0 reproduces frictionless contact.
     """
@@ -70,7 +70,7 @@ def ball_projection(x, radius):
 def guarded_projection(x, radius, reference, reference_radius):
     """[x]_r guarded by a reference state (x_ref, r_ref) of the same point, for Newton.
 
-    - Where the reference sticks (|x_ref| <= r_ref): the stick branch, x (0 where r = 0).
+    - Where the reference sticks (norm(x_ref) <= r_ref): the stick branch, x (0 where r = 0).
     - Where it slips along d = x_ref and x points ahead (x . d >= 0): [x]_r.
     - Where x points behind d (x . d < 0): the component of x along d takes the stick
       branch and the rest is projected onto the ball, ``[x - x_d]_r + x_d`` with
@@ -95,14 +95,14 @@ def guarded_projection(x, radius, reference, reference_radius):
 
 def guard_activity(x, radius, reference, reference_radius):
     """1 where :func:`guarded_projection` differs from [x]_r, else 0: outside the ball
-    (|x| > r > 0) where the reference sticks or x points behind its slip direction."""
+    (norm(x) > r > 0) where the reference sticks or x points behind its slip direction."""
     outside = ufl.And(ufl.gt(radius, 0), ufl.Not(_sticks(x, radius)))
     guarded = ufl.Or(_sticks(reference, reference_radius), ufl.lt(ufl.dot(x, reference), 0))
     return ufl.conditional(ufl.And(outside, guarded), 1, 0)
 
 
 def _sticks(x, radius):
-    """|x| <= r, the stick band of [x]_r (as a UFL condition)."""
+    """norm(x) <= r, the stick band of [x]_r (as a UFL condition)."""
     return ufl.le(ufl.dot(x, x), radius**2)
 
 

@@ -9,15 +9,15 @@ quadrature points x_q of the facets of Gamma_C (those of the forms' own rule)
 C and B sparse, a row per point and a column per dof of the point's cell (B = C for
 Theta = 1). The force terms int_Gamma_C (1/gamma_h) [P_gamma(u)]_+ P_Thgamma(v) are then
 
-    B^T (omega [C u - g]_+),        omega_q = w_q |J_f| / gamma_h,
+    B^T (omega [C u - g]_+),        omega_q = w_q abs(J_f) / gamma_h,
 
-w_q the reference weight and |J_f| the facet's Jacobian: the form's quadrature, summed in
+w_q the reference weight and abs(J_f) the facet's Jacobian: the form's quadrature, summed in
 another order. A step costs two sparse products and a max, without form assembly.
 
 The rows come from the project's own UFL (the gap, n_c, gamma_h and sigma_n of each
 contact), evaluated at the points by a compiled expression without arguments, and from
 the Lagrange basis tabulated at the same points; the facet normal n, which a cell
-expression cannot see, from the Jacobian: n = J^-T n_ref / |J^-T n_ref|.
+expression cannot see, from the Jacobian: n = J^-T n_ref / norm(J^-T n_ref).
 """
 
 from __future__ import annotations
@@ -81,6 +81,7 @@ class QuadratureContact:
         local -= self._force.array_r
 
     def destroy(self) -> None:
+        """Free the PETSc objects (this rank's own: not collective)."""
         for obj in (self._C, self._Bt, self._u, self._points, self._force):
             obj.destroy()
 
@@ -127,7 +128,7 @@ def _contact_rows(problem, contact):
 def _facet_geometry(values: np.ndarray, gdim: int, cell, local_facets: np.ndarray):
     """From the Jacobian J at each point (row-major, the first entries of ``values``, of
     shape (facets, points, ...)): its inverse K (tdim x gdim), the facet normal
-    n = K^T n_ref / |K^T n_ref| and the facet's Jacobian determinant |J_f| (1 for a
+    n = K^T n_ref / norm(K^T n_ref) and the facet's Jacobian determinant abs(J_f) (1 for a
     vertex), as the forms compute them."""
     reference_normals = basix.cell.facet_outward_normals(cell)[local_facets]
     tdim = reference_normals.shape[-1]

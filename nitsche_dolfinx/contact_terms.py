@@ -41,21 +41,29 @@ class ContactTerms:
         self.term = term
 
     def inertia(self, acceleration, v):
+        """No inertia: 0."""
         return 0
 
     def load(self, v):
+        """No load: 0."""
         return 0
 
     def damping_force(self, velocity, v):
+        """No damping: None."""
         return None
 
     def operator(self, u, v, velocity=None):
+        """The sum of ``term`` over the contacts at one time level, with the normal force
+        [P_gamma(u)]_+ (``velocity``: u' at that level)."""
         forms = (
             self.term(c, u, velocity, positive_part(c.projection(u)), v) for c in self.contacts
         )
         return sum(forms, 0)
 
     def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        """The sum of ``term`` over the contacts at the midpoint u^{n+1/2}, with the
+        obstacle at t^{n+1/2} and the switch Phi as the normal force (``velocity``: the
+        step's mean velocity)."""
         form = 0
         for contact in self.contacts:
             u_mid, force = contact.hybrid_state(u_old, u_new)
@@ -74,18 +82,25 @@ class GuardedFriction:
         self.reference = reference
 
     def inertia(self, acceleration, v):
+        """The problem's inertia term (the guard changes only the contact terms)."""
         return self.problem.inertia(acceleration, v)
 
     def load(self, v):
+        """The problem's loads."""
         return self.problem.load(v)
 
     def damping_force(self, velocity, v):
+        """The problem's damping force, or None without damping."""
         return self.problem.damping_force(velocity, v)
 
     def operator(self, u, v, velocity=None):
+        """The problem's operator at one time level, its friction law guarded by the
+        reference state."""
         return self.problem.operator(u, v, velocity, self.reference)
 
     def hybrid_operator(self, u_old, u_new, v, velocity=None):
+        """The problem's hybrid operator, its friction law guarded by the reference
+        state."""
         return self.problem.hybrid_operator(u_old, u_new, v, velocity, self.reference)
 
 

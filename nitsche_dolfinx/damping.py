@@ -161,6 +161,7 @@ class DampingPower:
         return float(sum_over_ranks(self.comm, [local])[0])
 
     def destroy(self) -> None:
+        """Free the work vectors (collective); the stiffness stays its owner's."""
         for vector in (self._x, self._y, self._force):
             vector.destroy()
 

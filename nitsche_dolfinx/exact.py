@@ -29,7 +29,9 @@ __all__ = [
     "two_bars_errors",
 ]
 
+#: The period in time of the bar's exact solution.
 BAR_PERIOD = 3.0
+#: The bar's energy, kinetic + elastic, the same at every time (all elastic at t = 0).
 BAR_ENERGY = 1.0 / 8.0
 
 
@@ -61,9 +63,9 @@ def bar_contact_values(t):
 def bar_contact_errors(history, dt: float) -> dict[str, float]:
     """The errors at x = 0 of a bar run (a :class:`~nitsche_dolfinx.history.History` with
     the columns of :data:`~nitsche_dolfinx.cases.BAR_COLUMNS`), in l2(0, T) over its time
-    levels, e.g. (sum_n tau |u_h(t^n, 0) - u(t^n, 0)|^2)^(1/2): ``error_u_contact``,
+    levels, e.g. (sum_n tau abs(u_h(t^n, 0) - u(t^n, 0))^2)^(1/2): ``error_u_contact``,
     ``error_v_contact``, ``error_sigma_contact`` (the recorded pressure against sigma);
-    ``energy_error_max``, max_n |E^n - 1/8|; ``penetration_max``, max_n -u_h(t^n, 0) (or 0)."""
+    ``energy_error_max``, max_n abs(E^n - 1/8); ``penetration_max``, max_n -u_h(t^n, 0) (or 0)."""
     u, v, sigma = bar_contact_values(history["t"])
     return {
         "error_u_contact": np.sqrt(dt * np.sum((history["u_contact"] - u) ** 2)),
@@ -87,7 +89,7 @@ def two_bars_errors(history, v0: float, gap: float) -> dict[str, float]:
     """The relative errors of a run of two bars colliding (speeds +-v0, ``gap`` apart; the
     columns of ``demos/two_bars_1d.py``) against the exact pair: it touches at
     t0 = gap / (2 v0) and separates at t0 + 2, the left bar then at -v0, the right at +v0
-    (checked from 0.2 after), the energy unchanged. Also the largest |momentum| / v0 and
+    (checked from 0.2 after), the energy unchanged. Also the largest abs(momentum) / v0 and
     the mean Newton iterations."""
     touching = history["t"][history["contact_force"] > 0]
     start = gap / (2 * v0)
@@ -130,7 +132,7 @@ GAUSS_POINTS, GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(4)  # exact up to 
 
 
 class BarSpaceTimeErrors:
-    """sum_n tau ||e^n||^2_L2 and sum_n tau |e^n|^2_H1 of a bar simulation (H1 seminorm).
+    """sum_n tau ||e^n||^2_L2 and sum_n tau ||grad e^n||^2_L2 of a bar simulation (the H1 seminorm).
 
     Call it at t = 0 and after every step (``run(callback=errors)``). Each cell is cut
     at the kinks of the exact solution and integrated exactly by Gauss quadrature on

@@ -73,7 +73,7 @@ class DiagonalMass:
         return np.sqrt(self.inverse[:n])
 
     def destroy(self) -> None:
-        pass
+        """Nothing to free: the diagonal is a NumPy array."""
 
 
 class ConsistentMass:
@@ -102,26 +102,34 @@ class ConsistentMass:
         self._rhs, self._solution = self._solving.createVecs()
 
     def divide(self, force: PETSc.Vec, a: fem.Function) -> None:
+        """``a`` = M^-1 ``force`` by :meth:`solve`, ghosts included."""
         self.solve(force, self._solution)
         n = self._solution.getLocalSize()
         a.x.array[:n] = self._solution.array_r
         a.x.scatter_forward()
 
     def mult(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y = M x (owned entries) by the mass as assembled (not the identity at the fixed
+        dofs)."""
         self.matrix.mult(x, y)
 
     def solve(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """y = M^-1 x (owned entries; zero at the fixed dofs) by conjugate gradients to a
+        relative residual of 1e-12; PETSc raises an error if they do not converge."""
         n = x.getLocalSize()
         self._rhs.array[:] = x.array_r[:n]
         self._rhs.array[self._fixed] = 0.0
         self.ksp.solve(self._rhs, y)
 
     def start_scaling(self, n: int) -> np.ndarray:
+        """One at each of the ``n`` owned dofs, zero at the fixed ones: the power
+        iterations start from the smooth function itself."""
         scaling = np.ones(n)
         scaling[self._fixed] = 0.0
         return scaling
 
     def destroy(self) -> None:
+        """Free the PETSc objects (collective)."""
         for obj in (self.ksp, self._solving, self.matrix, self._rhs, self._solution):
             obj.destroy()
 
@@ -253,6 +261,7 @@ class MasslessNodes:
         return False
 
     def destroy(self) -> None:
+        """Free the PETSc objects, if any rank has massless dofs (collective)."""
         if self.active:
             objects = [self.ksp, self._rows, self._stiffness, self._contact, self._jacobian,
                        self._residual, self._delta, self._contact_rows]  # fmt: skip

@@ -259,4 +259,6 @@ class FacetJacobian:
         return False
 
     def petsc_objects(self) -> list:
+        """Its PETSc objects, for the system that holds it to destroy: B and the vector of
+        the activity."""
         return [self.B] + ([self._activity] if self.activity is not None else [])

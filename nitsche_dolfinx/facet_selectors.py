@@ -119,7 +119,7 @@ def _boundary_facets(mesh) -> np.ndarray:
 class _FacetGeometry:
     """The vertices of some boundary facets (shape (facets, vertices, 3)), their outward
     unit normals from the vertices (of the straight facet, on curved cells too) and the
-    extent of the mesh (the largest |coordinate| on any rank)."""
+    extent of the mesh (the largest abs(coordinate) on any rank)."""
 
     def __init__(self, mesh, facets: np.ndarray):
         tdim = mesh.topology.dim
@@ -224,12 +224,12 @@ def _vector(values, what: str) -> np.ndarray:
 
 class OnPlane:
     """Chooses the boundary facets whose vertices all lie on a plane (a line in 2D, a
-    point in 1D): |(x - point) . normal| <= tolerance.
+    point in 1D): abs((x - point) . normal) <= tolerance.
 
     Args:
         point: A point of the plane.
         normal: A normal of the plane (any length but zero).
-        tolerance: The distance allowed; default 1e-8 times the largest |coordinate| of
+        tolerance: The distance allowed; default 1e-8 times the largest abs(coordinate) of
             the mesh.
     """
 
@@ -242,6 +242,7 @@ class OnPlane:
         self.tolerance = tolerance
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether each facet of ``geometry`` lies on the plane (a bool per facet)."""
         tolerance = 1e-8 * geometry.extent if self.tolerance is None else self.tolerance
         distance = np.abs((geometry.vertices - self.point) @ self.normal)
         return (distance <= tolerance).all(axis=1)
@@ -267,13 +268,15 @@ class NormalWithin:
         self.angle = float(angle)
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether the outward normal of each facet of ``geometry`` is within the angle
+        (a bool per facet)."""
         cosine = np.clip(geometry.normals @ self.direction, -1.0, 1.0)
         return np.degrees(np.arccos(cosine)) <= self.angle + 1e-9
 
 
 class InBox:
     """Chooses the boundary facets whose vertices all lie in the box ``lower <= x <=
-    upper`` (widened by ``tolerance``, default 1e-8 times the mesh's largest |coordinate|).
+    upper`` (widened by ``tolerance``, default 1e-8 times the mesh's largest abs(coordinate)).
     """
 
     def __init__(self, lower, upper, tolerance: float | None = None):
@@ -283,6 +286,7 @@ class InBox:
         self.tolerance = tolerance
 
     def choose(self, geometry: _FacetGeometry) -> np.ndarray:
+        """Whether each facet of ``geometry`` lies in the box (a bool per facet)."""
         tolerance = 1e-8 * geometry.extent if self.tolerance is None else self.tolerance
         vertices = geometry.vertices
         inside = (vertices >= self.lower - tolerance) & (vertices <= self.upper + tolerance)

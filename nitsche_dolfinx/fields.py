@@ -63,6 +63,8 @@ class CellMean:
         self._mean = None
 
     def evaluate(self, target: fem.Function) -> None:
+        """Set ``target`` (a Lagrange Function) to the nodal means of the field; the
+        :class:`NodalMean` is made on the space of the first ``target``."""
         if self._mean is None:
             V = target.function_space
             self._mean = NodalMean(self.field, V, compat.element_degree(V))

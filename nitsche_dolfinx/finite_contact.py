@@ -153,7 +153,7 @@ class FiniteContact(_FiniteTerms, NitscheContact):
 
     def current_area(self, u):
         """The contact area in the current configuration as a form: H(P_gamma(u)) times
-        the change of area J |F^-T N| (Nanson's formula), over the reference Gamma_C."""
+        the change of area J norm(F^-T N) (Nanson's formula), over the reference Gamma_C."""
         F = ufl.Identity(len(u)) + ufl.grad(u)
         stretch = ufl.det(F) * ufl.sqrt(ufl.dot(ufl.inv(F).T * self.n, ufl.inv(F).T * self.n))
         return ufl.conditional(ufl.gt(self.projection(u), 0), stretch, 0) * self.ds

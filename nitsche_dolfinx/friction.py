@@ -67,6 +67,8 @@ class FrictionOutput:
         return assemble_global(self._work, self.comm)
 
     def update_fields(self) -> None:
+        """Evaluate ``slip_velocity`` and ``friction_traction`` at the current state
+        (collective)."""
         for field in self.fields:
             field.update()
 

@@ -106,6 +106,7 @@ class ModelFacts:
 
     @property
     def has_facet_tags(self) -> bool:
+        """Whether the model has facet tags (:attr:`facet_groups`)."""
         return len(self.facet_groups) > 0
 
 

@@ -161,9 +161,11 @@ class History:
         self._columns = None if columns is None else list(columns)
 
     def append(self, row: dict) -> None:
+        """Add the row of the next time level."""
         self.rows.append(row)
 
     def extend(self, rows) -> None:
+        """Add the rows of the next time levels, in time order."""
         self.rows.extend(rows)
 
     @property

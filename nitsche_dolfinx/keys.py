@@ -111,6 +111,7 @@ class Key:
 
     @property
     def required(self) -> bool:
+        """Whether the key has no default (:data:`REQUIRED`)."""
         return self.default is REQUIRED
 
     def default_text(self) -> str:

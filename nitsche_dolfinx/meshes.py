@@ -44,10 +44,11 @@ _NUM_VERTICES = {
     "hexahedron": 8,
 }
 
-#: Facet tags of :func:`bar_mesh`: the wall side x = 0 and the clamped end x = L.
+#: Facet tag of the wall side x = 0 of :func:`bar_mesh`.
 BAR_CONTACT = 1
+#: Facet tag of the clamped end x = length of :func:`bar_mesh`.
 BAR_CLAMPED = 2
-#: Facet tag of :func:`block_mesh`: its bottom y = 0.
+#: Facet tag of the bottom y = 0 of :func:`block_mesh`.
 BLOCK_CONTACT = 1
 
 

@@ -91,7 +91,7 @@ class MixedStepper(TimeLevels):
     """Crank-Nicolson steps of a :class:`~nitsche_dolfinx.model.ContactProblem` whose
     method is ``"mixed"``: contact by a Lagrange multiplier, one obstacle.
 
-    A :class:`~nitsche_dolfinx.stepper.Stepper`: :class:`~nitsche_dolfinx.simulation.Simulation`
+    A :class:`~nitsche_dolfinx.stepping.Stepper`: :class:`~nitsche_dolfinx.simulation.Simulation`
     builds it for a mixed problem and runs it like any other (history, fields,
     checkpoints, restarts). :meth:`contact_pressure` is lambda, the multiplier.
     """
@@ -310,6 +310,8 @@ class MixedStepper(TimeLevels):
         self._contact_fields.update()  # lambda and the state are those of the level
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """u, v, a and the multiplier lambda (copied out of the mixed unknown), by name:
+        everything the next step depends on."""
         self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
         return {
             "displacement": self.u,
@@ -319,6 +321,8 @@ class MixedStepper(TimeLevels):
         }
 
     def describe(self) -> dict[str, Any]:
+        """What a checkpoint shares with the stepper that reloads it
+        (:func:`~nitsche_dolfinx.stepping.checkpoint_description`)."""
         return checkpoint_description(self)
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:

@@ -585,7 +585,7 @@ class ContactProblem:
     def operator(self, u, v, velocity=None, reference=None):
         """B(u)(v) = A_Thgamma(u, v) + the Nitsche contact terms at one time level
         (with friction, ``velocity`` is u' at that level; ``reference``: the guarded
-        friction law, see :meth:`guarded_friction`)."""
+        friction law, see :class:`~nitsche_dolfinx.contact_terms.GuardedFriction`)."""
         form = self.bulk_stiffness(u, v)
         for contact in self.contacts:
             form = form + contact.residual(u, v, velocity, reference)

@@ -218,7 +218,7 @@ class MovingObstacle(Obstacle):
 
     def normal(self, x, level: str = "new"):
         """n_c(x, t) = R n_0(X(x, t)) at the level; for a shape with the generic normal
-        (a signed distance), -grad d / |grad d| of the moved distance, which is the same."""
+        (a signed distance), -grad d / norm(grad d) of the moved distance, which is the same."""
         if type(self.shape).normal is Obstacle.normal:
             grad_d = ufl.grad(self.distance(x, level))
             return -grad_d / ufl.sqrt(ufl.dot(grad_d, grad_d))

@@ -49,7 +49,7 @@ class Obstacle:
         return self.distance(x)
 
     def normal(self, x):
-        """Obstacle normal n_c = -grad d / |grad d| (from the body into the obstacle)."""
+        """Obstacle normal n_c = -grad d / norm(grad d) (from the body into the obstacle)."""
         grad_d = ufl.grad(self.distance(x))
         return -grad_d / ufl.sqrt(ufl.dot(grad_d, grad_d))
 
@@ -168,8 +168,8 @@ def _check_dimension(array: np.ndarray, x, what: str) -> None:
 
 class _RadialObstacle(Obstacle):
     """An obstacle at ``radius`` from a centre (sphere) or an axis (cylinder): d and n
-    from the radial vector r that :meth:`_radial` gives with the radius, d = |r| - R
-    outside (-d inside) and n = -r / |r| outside (r / |r| inside)."""
+    from the radial vector r that :meth:`_radial` gives with the radius, d = norm(r) - R
+    outside (-d inside) and n = -r / norm(r) outside (r / norm(r) inside)."""
 
     side: str
 
@@ -195,8 +195,8 @@ class SphereObstacle(_RadialObstacle):
     Args:
         center: The centre, of the mesh's dimension.
         radius: The radius (> 0).
-        side: Where the body is: ``"outside"`` (a rigid ball, d = |x - c| - R) or
-            ``"inside"`` (a spherical cavity, d = R - |x - c|).
+        side: Where the body is: ``"outside"`` (a rigid ball, d = norm(x - c) - R) or
+            ``"inside"`` (a spherical cavity, d = R - norm(x - c)).
     """
 
     def __init__(self, center: Sequence[float], radius: float, side: str = "outside"):

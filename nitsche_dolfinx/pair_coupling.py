@@ -291,6 +291,8 @@ class PairCoupling:
         A.assemble()
 
     def petsc_objects(self) -> list:
+        """Its PETSc objects, for the system that holds it to destroy: the work vectors of
+        T^T G and the coupling terms' matrices and products (T is the pairing's)."""
         objects = [self._g, self._Tg]
         for _, matrices, products in self._terms:
             objects.extend(matrices)

@@ -810,6 +810,7 @@ class Pairing:
         target.x.scatter_forward()
 
     def destroy(self) -> None:
+        """Free T and the work vector (collective)."""
         self.T.destroy()
         self._partner_work.destroy()
 
@@ -845,7 +846,8 @@ class PairContact(NitscheContact):
             when they have slid (:meth:`Pairing.slid`); False: in the reference
             configuration only.
         friction: The Coulomb coefficient mu_f (a ``fem.Constant``), or None.
-        The others are those of :class:`~nitsche_dolfinx.contact.NitscheContact`.
+
+    The other arguments are those of :class:`~nitsche_dolfinx.contact.NitscheContact`.
     """
 
     def __init__(

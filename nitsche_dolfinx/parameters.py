@@ -49,7 +49,7 @@ GAMMA0_SCALINGS = ("absolute", "E")
 #: The range of the dimensionless gamma0 E: beyond it the contact is so soft that the
 #: obstacle is hardly there (the contact stiffness 1/gamma_h a hundredth of the body's
 #: E/h), or so stiff that the linear solves lose every digit. Its top also bounds
-#: |Theta| gamma0 E: the weight of the term Theta gamma_h sigma_n(u) sigma_n(v) against
+#: abs(Theta) gamma0 E: the weight of the term Theta gamma_h sigma_n(u) sigma_n(v) against
 #: the body's stiffness (docs/method.md section 10).
 GAMMA0_E_RANGE = (1e-12, 1e2)
 #: The most steps a run may make: more is a mistake in dt or t_end, not a run.
@@ -225,7 +225,7 @@ class NitscheParameters:
 
     def check_scale(self, E: float) -> float:
         """The dimensionless gamma0 E (``gamma0_scaling`` ``"absolute"``) or gamma0
-        (``"E"``), checked against :data:`GAMMA0_E_RANGE`, and |Theta| times it against
+        (``"E"``), checked against :data:`GAMMA0_E_RANGE`, and abs(Theta) times it against
         the range's top; ``E`` is the body's Young modulus (docs/method.md section 10)."""
         absolute = self.gamma0_scaling == "absolute"
         dimensionless = self.gamma0 * E if absolute else self.gamma0

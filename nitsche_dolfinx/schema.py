@@ -45,6 +45,7 @@ class Table:
     free: bool = False  # any key (the [petsc] options)
 
     def header(self, name: str) -> str:
+        """The table's header in TOML: ``[name]``, or ``[[name]]`` for an array."""
         return f"[[{name}]]" if self.array else f"[{name}]"
 
 

@@ -47,7 +47,7 @@ class Model(Protocol):
     """What a time scheme asks of a model to write a step's equation (UFL forms).
 
     Implemented by :class:`~nitsche_dolfinx.model.ContactProblem` and, for single
-    contact quantities, by the classes of :mod:`nitsche_dolfinx.friction`.
+    contact quantities, by the classes of :mod:`nitsche_dolfinx.contact_terms`.
     """
 
     def inertia(self, acceleration, v):

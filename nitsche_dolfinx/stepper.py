@@ -493,12 +493,17 @@ class NitscheStepper(TimeLevels, BalanceSums):
             self._friction.update_fields()
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """Everything the next step depends on, by name: u, v and a; at finite strain the
+        last accepted unknown (the next step's first guess); the supports' reactions; the
+        displacements the contact pairs were paired in."""
         functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
         if self._last_unknown is not None:
             functions["last_unknown"] = self._last_unknown
         return {**functions, **self._balance_functions(), **self.problem.pairing_state()}
 
     def describe(self) -> dict[str, Any]:
+        """What a checkpoint shares with the stepper that reloads it
+        (:func:`~nitsche_dolfinx.stepping.checkpoint_description`)."""
         return checkpoint_description(self)
 
     def levels(self) -> dict[str, Any]:
@@ -512,6 +517,10 @@ class NitscheStepper(TimeLevels, BalanceSums):
         return levels
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        """Move to a time level whose functions were just loaded (``saved``: the
+        checkpoint's description and :meth:`levels`): the clock, the pairings, the sums
+        of the balance, the data and the obstacles at ``t``; the level's diagnostics are
+        computed anew."""
         self._restore_levels(t, step_index, saved)
         self.problem.restore_pairs()
         # (an int: the last iterate at which the set moved; a bool in older checkpoints)

@@ -130,6 +130,7 @@ class _Base:
         return None
 
     def petsc_objects(self) -> list:
+        """The PETSc objects the system made, for the solver to destroy (none here)."""
         return []
 
 
@@ -213,6 +214,8 @@ class FormSystem(_Base):
         return True
 
     def petsc_objects(self) -> list:
+        """The PETSc objects the system made, for the solver to destroy: those of the
+        coupling, if any."""
         return [] if self.coupling is None else self.coupling.petsc_objects()
 
 
@@ -503,6 +506,9 @@ class AffineSystem(_Base):
         return self.facet.assemblies if self.facet is not None else 0
 
     def petsc_objects(self) -> list:
+        """The PETSc objects the system made, for the solver to destroy: K_bc, K (and
+        K_static, K_pairs with contact pairs), the vectors F_cell(0) and K x, and those of
+        B, of :class:`~nitsche_dolfinx.assembly.CellResidualAtZero` and of the coupling."""
         objects = [self.K_bc, self.F0, self._Kx]
         if self.K_pairs is not None:
             objects += [self.K_static, self.K_pairs]

@@ -1,7 +1,7 @@
 """The explicit Verlet (central difference) scheme with Nitsche contact (docs/method.md
 section 12): with a diagonal mass, a step is one product with the matrix of the affine
 terms, one assembly of the contact force on Gamma_C and one division, without Newton and
-without a linear solve.
+without a linear solve::
 
     u^{n+1} = u^n + tau v^n + tau^2/2 a^n
     D a^{n+1} = L(t^{n+1}) - A_Thgamma(u^{n+1}, .)
@@ -536,6 +536,9 @@ class ExplicitStepper(TimeLevels, BalanceSums):
             self._restore_sums(self._sums)
 
     def state(self, columns=None) -> dict[str, float]:
+        """Diagnostics at the current time level, identical on every rank, as
+        :meth:`~nitsche_dolfinx.stepper.NitscheStepper.state` gives them, with zero friction
+        dissipation and Newton iterations."""
         values = {"t": self.t, **self.diagnostics.of_level(self.step_index, columns)}
         values.update(self._balance_columns())
         values["friction_dissipation"] = 0.0
@@ -554,9 +557,14 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         return values
 
     def contact_pressure(self):
+        """The contact pressure lambda_h = -(1/gamma_h) [P_gamma(u)]_+ of the first contact
+        term (an obstacle or a pair's half), as a UFL expression on its Gamma_C
+        (docs/method.md section 2)."""
         return self.problem.contacts[0].pressure(self.u)
 
     def output_fields(self) -> dict:
+        """Displacement, velocity, von Mises stress and the contact fields on Gamma_C
+        (:class:`~nitsche_dolfinx.fields.ContactFields`)."""
         fields = body_fields(self.problem, self.u, self.v)
         if self.problem.contacts:
             if self._contact_fields is None:
@@ -568,6 +576,8 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         return fields
 
     def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """Everything the next step depends on, by name: u, v and a; the supports'
+        reactions; the displacements the contact pairs were paired in."""
         functions = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
         return {**functions, **self._balance_functions(), **self.problem.pairing_state()}
 
@@ -596,6 +606,8 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         return loads
 
     def describe(self) -> dict[str, Any]:
+        """What a checkpoint shares with the stepper that reloads it
+        (:func:`~nitsche_dolfinx.stepping.checkpoint_description`)."""
         return checkpoint_description(self)
 
     def levels(self) -> dict[str, Any]:
@@ -611,6 +623,10 @@ class ExplicitStepper(TimeLevels, BalanceSums):
         return levels
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        """Move to a time level whose functions were just loaded (``saved``: the
+        checkpoint's description and :meth:`levels`): the clock, the pairings, the
+        level's damping force, the sums of the balance, K u, the data and the obstacles
+        at ``t``; the level's diagnostics are computed anew."""
         self._restore_levels(t, step_index, saved)
         self.problem.restore_pairs()
         self.pairing_energy = float(saved.get("pairing_energy", 0.0))

@@ -1,0 +1,138 @@
+"""The API reference of the site (docs/api.md) is complete: every module of the package has
+its ``automodule`` block, and every public name has a docstring that autodoc shows.
+
+Public names are those of a module's ``__all__`` (else its names without a leading
+underscore) that the module defines itself: its classes and functions with their
+docstrings, its data with a ``#:`` comment (what autodoc reads for data), and the methods
+and properties of its public classes (a docstring inherited from a base class counts, as
+it does for autodoc). No Sphinx build: the checks read the modules and docs/api.md."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import os
+import pkgutil
+import re
+
+import pytest
+
+import nitsche_dolfinx
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+MODULES = sorted(
+    f"nitsche_dolfinx.{module.name}"
+    for module in pkgutil.iter_modules(nitsche_dolfinx.__path__)
+    if not module.name.startswith("_")
+)
+
+
+def automodules() -> dict[str, str]:
+    """The ``automodule`` directives of docs/api.md: ``{module: its option lines}``."""
+    with open(os.path.join(REPO, "docs", "api.md")) as f:
+        text = f.read()
+    blocks = re.findall(r"^\.\. automodule:: *(\S+) *\n((?:[ \t]+\S.*\n?)*)", text, re.M)
+    return dict(blocks)
+
+
+def assigned_names(module) -> set[str]:
+    """The names a module assigns at its top level (not those it imports)."""
+    tree = ast.parse(inspect.getsource(module))
+    names = set()
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else []
+        if isinstance(node, ast.AnnAssign):
+            targets = [node.target]
+        for target in targets:
+            for name in ast.walk(target):
+                if isinstance(name, ast.Name):
+                    names.add(name.id)
+    return names
+
+
+def public_names(module) -> list[str]:
+    """The module's ``__all__``, or its names without a leading underscore."""
+    names = getattr(module, "__all__", None)
+    return list(names) if names is not None else [n for n in vars(module) if n[0] != "_"]
+
+
+def defined_here(module, name: str) -> bool:
+    """Whether ``name`` is a class or function of ``module`` (not imported into it)."""
+    value = getattr(module, name)
+    return getattr(value, "__module__", None) == module.__name__
+
+
+def public_classes(module) -> list[type]:
+    """The public classes that ``module`` defines."""
+    return [
+        getattr(module, name)
+        for name in public_names(module)
+        if inspect.isclass(getattr(module, name, None)) and defined_here(module, name)
+    ]
+
+
+def test_every_module_in_the_reference():
+    """docs/api.md documents each module with ``automodule`` and ``:members:``, and names
+    no module that is gone."""
+    listed = automodules()
+    missing = [name for name in MODULES if name not in listed]
+    no_members = [name for name, options in listed.items() if ":members:" not in options]
+    gone = [name for name in listed if name not in MODULES]
+    assert len(MODULES) > 50  # the package's modules were found at all
+    assert not missing, f"modules missing from docs/api.md: {missing}"
+    assert not no_members, f"automodule without :members: in docs/api.md: {no_members}"
+    assert not gone, f"docs/api.md names modules the package lacks: {gone}"
+
+
+def test_public_names_have_docstrings():
+    """Each public class and function has a docstring, each public constant a ``#:``
+    comment; a name in ``__all__`` that the module lacks is reported too."""
+    pycode = pytest.importorskip("sphinx.pycode")
+    missing, absent, checked = [], [], 0
+    for name in MODULES:
+        module = importlib.import_module(name)
+        comments = pycode.ModuleAnalyzer.for_module(name).find_attr_docs()
+        assigned = assigned_names(module)
+        for public in public_names(module):
+            if not hasattr(module, public):
+                absent.append(f"{name}.{public}")
+                continue
+            value = getattr(module, public)
+            if inspect.ismodule(value):
+                continue
+            if inspect.isclass(value) or inspect.isroutine(value):
+                if not defined_here(module, public):
+                    continue  # imported: documented where it is defined
+                documented = bool(inspect.getdoc(value))
+            elif public in assigned:
+                documented = ("", public) in comments
+            else:
+                continue  # data imported from another module
+            checked += 1
+            if not documented:
+                missing.append(f"{name}.{public}")
+    assert checked > 300  # the public names were found at all
+    assert not absent, f"names in __all__ that their module lacks: {absent}"
+    assert not missing, f"public names without a docstring (data: a #: comment): {missing}"
+
+
+def test_public_methods_have_docstrings():
+    """Each public method and property of a public class has a docstring, its own or that
+    of the method it overrides."""
+    missing, checked = [], 0
+    for name in MODULES:
+        module = importlib.import_module(name)
+        for cls in public_classes(module):
+            for key, value in vars(cls).items():
+                if key.startswith("_"):
+                    continue
+                if isinstance(value, (staticmethod, classmethod)):
+                    value = value.__func__
+                if not (inspect.isfunction(value) or isinstance(value, property)):
+                    continue
+                checked += 1
+                if not inspect.getdoc(getattr(cls, key)):
+                    missing.append(f"{name}.{cls.__qualname__}.{key}")
+    assert checked > 200  # the methods were found at all
+    assert not missing, f"public methods and properties without a docstring: {missing}"
