@@ -16,7 +16,7 @@ from petsc4py import PETSc
 from .assembly import CouplingEntries, csr_pointers
 from .collective import any_rank
 
-__all__ = ["SUM_IN_FULL_BELOW", "JacobianSum", "pattern_matrix"]
+__all__ = ["SUM_IN_FULL_BELOW", "JacobianSum", "pattern_matrix", "widen"]
 
 #: A Jacobian with fewer nonzero entries than this (over all ranks) is summed in full at
 #: each change: a copy and an addition cost less there than finding the rows to set again.
@@ -47,6 +47,15 @@ def pattern_matrix(entries: CouplingEntries, like: PETSc.Mat) -> PETSc.Mat:
         matrix.createAIJ(sizes, comm=comm)
     matrix.setPreallocationCSR(csr)
     return matrix
+
+
+def widen(entries: CouplingEntries, matrices) -> None:
+    """Add ``entries`` to the sparsity of each of ``matrices`` (assembled: PETSc rebuilds
+    them, keeping their values)."""
+    pattern = pattern_matrix(entries, matrices[0])
+    for matrix in matrices:
+        matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    pattern.destroy()
 
 
 def _ranges(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,10 +209,6 @@ class JacobianSum:
 
     def widen(self, entries: CouplingEntries, matrices) -> None:
         """Add ``entries`` to the sparsity of ``matrices`` (the solver's Jacobian and its
-        lagged copy: PETSc rebuilds them, keeping their values); a sum in full then zeroes
-        them first."""
-        pattern = pattern_matrix(entries, matrices[0])
-        for matrix in matrices:
-            matrix.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-        pattern.destroy()
+        lagged copy, :func:`widen`); a sum in full then zeroes them first."""
+        widen(entries, matrices)
         self.widened = True

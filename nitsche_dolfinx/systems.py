@@ -36,7 +36,7 @@ from .assembly import (
 )
 from .damping import DiagonalDamping
 from .facet_jacobian import ContactFacets, FacetJacobian
-from .jacobian_sum import JacobianSum, pattern_matrix
+from .jacobian_sum import JacobianSum, widen
 
 __all__ = ["AffineSystem", "FormSystem", "StepForms"]
 
@@ -204,9 +204,7 @@ class FormSystem(_Base):
             return True
         if self.coupling.growth is not None:  # pairs in contact for the first time
             # (A assembled first: PETSc drops the unused entries of a new matrix)
-            pattern = pattern_matrix(self.coupling.growth, A)
-            A.axpy(1.0, pattern, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-            pattern.destroy()
+            widen(self.coupling.growth, [A])
             if P is not None:  # the lagged copy: A's sparsity, A's values
                 A.copy(P, PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
             self.grew = True

@@ -185,6 +185,13 @@ def test_two_bars_demo_contract(tmp_path):
         assert (out / figure).stat().st_size > 10_000, figure
 
 
+def difference_from_plane(stdout: str) -> float:
+    """The relative difference of the pair's contact force from one disk's on the plane of
+    symmetry, as the two-disks demo prints it."""
+    line = next(row for row in stdout.splitlines() if "against one disk" in row)
+    return float(line.split("differs by ")[1].split()[0])
+
+
 def test_two_disks_demo_contract(tmp_path):
     """docs/method.md section 6: the columns of section 6 then the momentum; the symmetric check
     against one disk on the plane; both bodies in solution.xdmf."""
@@ -207,10 +214,9 @@ def test_two_disks_demo_contract(tmp_path):
         *body_columns(1, 2), *body_columns(2, 2),
     ]  # fmt: skip
     assert "580 DOFs" in result.stdout
-    line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
     # two computations of the same steps, each to Newton's tolerance: 1e-8 of the force, as
     # in tests/test_two_bodies.py (measured: 2e-12)
-    assert float(line.split("differs by ")[1].split()[0]) < 1e-8
+    assert difference_from_plane(result.stdout) < 1e-8
     times = assert_xdmf_readable(str(out / "solution.xdmf"), 2.0)
     assert times[-1] == pytest.approx(2.0)
 
@@ -225,10 +231,9 @@ def test_two_disks_demo_hyperelastic(tmp_path):
         "--out", str(out),
     )  # fmt: skip
     assert result.returncode == 0, result.stderr
-    line = next(row for row in result.stdout.splitlines() if "against one disk" in row)
     # as in test_two_disks_demo_contract: two computations to Newton's tolerance (measured
     # 1e-14)
-    assert float(line.split("differs by ")[1].split()[0]) < 1e-8
+    assert difference_from_plane(result.stdout) < 1e-8
     history = read_history(str(out / "history.csv"))
     assert history["contact_force"].max() > 0
     energy = history["energy_theta"]
