@@ -191,14 +191,12 @@ def main(argv=None) -> None:
     linear = package_forces(path, args.gamma0, 1.0, depths, "linear")[0]
     for row, force in zip(rows, linear):
         row["F linear / F GetFEM"] = force / row["F GetFEM"]
+    from nitsche_dolfinx.reports import markdown_table
+
     keys = list(rows[0])
     lines = [f"h = {args.mesh_size}, {dofs} DOFs, gamma0 = {args.gamma0}", "",
-             "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]  # fmt: skip
-    for row in rows:
-        cells = [
-            f"{value:.6g}" if isinstance(value, float) else str(value) for value in row.values()
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
+             markdown_table(keys, [[f"{v:.6g}" if isinstance(v, float) else str(v)
+                                          for v in row.values()] for row in rows])]  # fmt: skip
     worst = max(row[f"rel. diff Theta={t:g}"] for row in rows for t in (0.0, 1.0))
     lines += ["", f"largest relative difference from GetFEM: {worst:.2e}"]
     print("\n".join(lines))

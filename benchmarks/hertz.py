@@ -39,6 +39,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
 from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.reports import markdown_table
 
 E, NU, RHO, R = 1.0, 0.3, 1.0, 1.0
 SURFACE, X_PLANE, Y_PLANE, VOLUME = 1, 2, 3, 4  # physical groups of the mesh file
@@ -150,12 +151,8 @@ def main(argv=None) -> None:
             row["peak vs linear"] = row["peak force"] / histories["linear"].max() - 1
     lines = [f"Hertz: V = {theory['speed']:.4g}, contact time {theory['contact time']:.4g}, "
              f"peak force {theory['peak force']:.4g}; {dofs} DOFs, tau = {dt:.4g}", "",
-             "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]  # fmt: skip
-    for row in rows:
-        cells = [
-            f"{value:.4g}" if isinstance(value, float) else str(value) for value in row.values()
-        ]
-        lines.append("| " + " | ".join(cells) + " |")
+             markdown_table(list(rows[0]), [[f"{v:.4g}" if isinstance(v, float) else str(v)
+                                          for v in row.values()] for row in rows])]  # fmt: skip
     print("\n".join(lines))
     with open(os.path.join(args.out, "hertz.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
