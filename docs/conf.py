@@ -5,6 +5,9 @@ import os
 import shutil
 import sys
 
+from sphinx.ext.napoleon import Config
+from sphinx.ext.napoleon.docstring import GoogleDocstring
+
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "_ext"))
 
 project = "nitsche-dolfinx"
@@ -14,9 +17,9 @@ extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "sphinxarg.ext",
+    "generated",
 ]
 include_patterns = ["README.md", "docs/*.md", "docs/api/*.md", "demos/*.py"]
 myst_enable_extensions = ["dollarmath", "amsmath"]
@@ -25,7 +28,6 @@ nb_execution_mode = "off"
 nb_custom_formats = {".py": ["demo_reader.read_demo", {}, False]}
 html_theme = "furo"
 autodoc_member_order = "bysource"
-napoleon_use_ivar = True
 html_extra_path = ["_ext/index.html"]
 html_favicon = "_ext/favicon.svg"
 #: MathJax 2 from Debian's libjs-mathjax (make docs installs it), copied into the site: the
@@ -42,14 +44,18 @@ mathjax2_config = {"tex2jax": {"processClass": "math|tex2jax_process",
                                "ignoreClass": "tex2jax_ignore|mathjax_ignore"}}  # fmt: skip
 
 
-def _plain_attribute_docstrings(app, what, name, obj, options, lines):
-    """Napoleon reads the first line of the docstring of a data, attribute or property as
-    ``type: description`` (``#: Facet tags: the bottom ...`` showed "Type: Facet tags");
-    the package writes no type there, so these are read as any other docstring."""
-    from sphinx.ext.napoleon import _process_docstring
+#: The docstrings are in Google's style (Args:, Returns:, Raises:), read by napoleon's
+#: GoogleDocstring with these settings.
+NAPOLEON = Config(napoleon_use_ivar=True, napoleon_numpy_docstring=False)
 
+
+def _google_docstring(app, what, name, obj, options, lines):
+    """A docstring in Google's style as reStructuredText. A data, attribute or property is
+    read as any other docstring: napoleon would read its first line as ``type:
+    description`` (``#: Facet tags: the bottom ...`` showed "Type: Facet tags"), and the
+    package writes no type there."""
     plain = "object" if what in ("attribute", "data", "property") else what
-    _process_docstring(app, plain, name, obj, options, lines)
+    lines[:] = GoogleDocstring(lines, NAPOLEON, app, plain, name, obj, options).lines()
 
 
 def _copy_mathjax(app, exception):
@@ -68,9 +74,4 @@ def _copy_mathjax(app, exception):
 
 def setup(app):
     app.connect("build-finished", _copy_mathjax)
-    from sphinx.ext.napoleon import _process_docstring
-
-    for listener in list(app.events.listeners["autodoc-process-docstring"]):
-        if listener.handler is _process_docstring:
-            app.disconnect(listener.id)
-    app.connect("autodoc-process-docstring", _plain_attribute_docstrings)
+    app.connect("autodoc-process-docstring", _google_docstring)

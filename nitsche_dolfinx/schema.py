@@ -31,6 +31,7 @@ __all__ = [
     "SCHEMA",
     "Table",
     "describe",
+    "markdown",
 ]
 
 
@@ -163,7 +164,7 @@ SCHEMA: dict[str, Table] = {
         array=True,
     ),
     "material": Table(
-        "linear elasticity: E and nu, or lmbda and mu (plane strain in 2D)",
+        "the material: its law, and E and nu or lmbda and mu (plane strain in 2D)",
         toml_keys("material"),
         required=True,
     ),
@@ -316,4 +317,77 @@ def describe(width: int = 100) -> str:
         for name, (_, keys) in PROFILES.items()
     )
     lines.append(_FORMS.format(profiles=profiles))
+    return "\n".join(lines)
+
+
+def _cell(text: str) -> str:
+    """Text for a cell of a Markdown table: its bars escaped."""
+    return text.replace("|", "\\|")
+
+
+def _sentence(text: str) -> str:
+    """``text`` as a sentence of a Markdown page: a capital, a full stop, bars escaped."""
+    return _cell(text[:1].upper() + text[1:] + ".")
+
+
+def _key_table(keys: dict[str, Key]) -> list[str]:
+    rows = ["| key | kind | default | meaning |", "|---|---|---|---|"]
+    for key, spec in keys.items():
+        choices = f" (one of {', '.join(f'`{c}`' for c in spec.choices)})" if spec.choices else ""
+        default = "**required**" if spec.required else f"`{spec.default_text()}`"
+        if spec.shown_default is not None:
+            default = _cell(spec.shown_default)
+        rows.append(f"| `{key}` | {spec.kind} | {default} | {_cell(spec.meaning)}{choices} |")
+    return rows + [""]
+
+
+def markdown() -> str:
+    """Every table and key of :data:`SCHEMA`, the facet selectors, mesh generators,
+    obstacles and value forms, as Markdown: the site's TOML reference (docs/toml.md), made
+    from the same objects that validate a file."""
+    lines = ["## Tables", ""]
+    for name, table in SCHEMA.items():
+        header = table.header(name)
+        text = _sentence(table.meaning) + " Required." * table.required
+        text += " An array of tables: repeat the header for each one." * table.array
+        lines += [f"### `{header}`", "", text, ""]
+        if table.free:
+            lines += ["Any key: each is a PETSc option, its value the option's value.", ""]
+        lines += _key_table(table.keys) if table.keys else []
+    lines += [
+        "## Facet selectors",
+        "",
+        "`[[facet_tag]]` tags facets with `NAME = { key = value, ... }`, NAME one of:",
+        "",
+    ]
+    for name, table in FACET_SELECTORS.items():
+        lines += [f"### `{name}`", "", _sentence(table.meaning), ""] + _key_table(table.keys)
+    lines += ["## Mesh generators", "",
+              "`[mesh] generator = NAME`: each generator takes some of the `[mesh]` keys above, "
+              "with its own defaults, and tags its facets and cells.", "",
+              "| generator | what it makes | its keys and defaults | its tags |",
+              "|---|---|---|---|"]  # fmt: skip
+    for name, generator in MESH_GENERATORS.items():
+        keys = ", ".join(f"`{key} = {toml_text(value)}`" for key, value in generator.keys.items())
+        meaning, tags = _cell(generator.meaning), _cell(generator.tags)
+        lines.append(f"| `{name}` | {meaning} | {keys} | {tags} |")
+    lines += ["", "## Obstacles", "", "`[[obstacle]] type = NAME`, NAME one of:", ""]
+    for name, obstacle in OBSTACLES.items():
+        dimensions = ", ".join(f"{d}D" for d in obstacle.dimensions)
+        lines += [f"### `{name}`", "", _sentence(f"{obstacle.meaning} ({dimensions})"), ""]
+        lines += _key_table(obstacle.keys)
+    profiles = ", ".join(
+        f"`{{ profile = {toml_text(name)}, {', '.join(keys)} }}`"
+        for name, (_, keys) in PROFILES.items()
+    )
+    lines += [
+        "## Values in time and in space", "",
+        "- **Values in time** (`[[dirichlet]]`, `[[traction]]`, `[body_force]` value): a "
+        "vector such as `[0.0, -1.0]`, whose entries may be expressions of x, y, z and t; a "
+        "table `[[t0, v...], [t1, v...], ...]`, linear in between and held outside; or a "
+        f"profile: {profiles}.",
+        "- **Values in x** (`[initial]`): a vector, or `{ constant = c, gradient = G, "
+        "hessian = H }`: u_i(x) = c_i + G_ij x_j + 1/2 H_ijk x_j x_k (each optional).",
+        "- No value is evaluated as code.", "",
+    ]  # fmt: skip
     return "\n".join(lines)

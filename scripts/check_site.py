@@ -9,7 +9,10 @@ Every page is served locally and loaded; the check fails, naming the page, on:
 - an image that does not load;
 - an internal link to a file of the site that does not exist;
 - formulas that MathJax did not render (docs/method.md);
-- a search for ``add_contact_pair`` that finds nothing.
+- a search for ``add_contact_pair`` that finds nothing;
+- a TOML key (docs/toml.html), a flag of the command (docs/cli.html) or of a demo (its
+  page) missing from the site, a demo missing from the gallery or a demo page without a
+  picture (read from the pages' HTML, against the objects the site is made from).
 
 Prints one line per problem and a summary; exits 1 if there is any. About a minute.
 """
@@ -18,12 +21,17 @@ from __future__ import annotations
 
 import argparse
 import functools
+import html
 import http.server
 import os
+import re
 import sys
 import threading
 import time
 import urllib.parse
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "docs", "_ext"))
 
 #: The search the site must answer (a method of the API reference).
 SEARCH = "add_contact_pair"
@@ -136,6 +144,71 @@ def check_search(driver, url: str) -> list[str]:
     return []
 
 
+def _text(folder: str, page: str) -> str:
+    path = os.path.join(folder, page)
+    if not os.path.exists(path):
+        return ""
+    with open(path) as f:
+        return f.read()
+
+
+def _literal(name: str) -> str:
+    """How the site writes ``name`` as code: in spans of class "pre", one per word."""
+    return "".join(f'<span class="pre">{html.escape(word)}</span>' for word in name.split())
+
+
+def _has_flag(text: str, option: str) -> bool:
+    """Whether ``text`` holds ``option`` as a flag of its own (not a part of a longer one)."""
+    return re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", text) is not None
+
+
+def option_strings(parser) -> list[str]:
+    """Every option of ``parser`` and of its subcommands."""
+    options = []
+    for action in parser._actions:
+        options += action.option_strings
+        for sub in getattr(action, "choices", None) or {}:
+            if isinstance(action, argparse._SubParsersAction):
+                options += option_strings(action.choices[sub])
+    return options
+
+
+def check_contents(folder: str) -> list[str]:
+    """Every TOML key, flag and demo where the site promises them (static: the HTML)."""
+    import generated
+
+    from nitsche_dolfinx import cli, schema
+
+    problems = []
+    toml = _text(folder, "docs/toml.html")
+    for registry in (schema.SCHEMA, schema.FACET_SELECTORS):
+        for name, table in registry.items():
+            shown = table.header(name) if registry is schema.SCHEMA else name
+            missing = [key for key in [shown, *table.keys] if _literal(key) not in toml]
+            problems += [f"docs/toml.html: no TOML key {name}.{key}" for key in missing]
+    for name, obstacle in schema.OBSTACLES.items():
+        missing = [key for key in [name, *obstacle.keys] if _literal(key) not in toml]
+        problems += [f"docs/toml.html: no obstacle key {name}.{key}" for key in missing]
+    for name in schema.MESH_GENERATORS:
+        if _literal(name) not in toml:
+            problems.append(f"docs/toml.html: no mesh generator {name}")
+    text = _text(folder, "docs/cli.html")
+    for option in option_strings(cli.argument_parser()):
+        if not _has_flag(text, option):
+            problems.append(f"docs/cli.html: no flag {option}")
+    gallery = _text(folder, "docs/gallery.html")
+    for demo in generated.demo_names():
+        page = _text(folder, f"demos/{demo}.html")
+        for option in option_strings(generated.demo_parser(demo)):
+            if not _has_flag(page, option):
+                problems.append(f"demos/{demo}.html: no flag {option}")
+        if "<img" not in page:
+            problems.append(f"demos/{demo}.html: no picture")
+        if f'href="../demos/{demo}.html"' not in gallery:
+            problems.append(f"docs/gallery.html: no demo {demo}")
+    return problems
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("site", nargs="?", default="_site/html", help="the built site")
@@ -149,7 +222,7 @@ def main(argv=None) -> int:
     driver = browser()
     try:
         pages = pages_of(folder)
-        problems = []
+        problems = check_contents(folder)
         for page in pages:
             problems += check_page(driver, url, page, folder)
         problems += check_math(driver, url) + check_search(driver, url)

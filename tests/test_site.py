@@ -1,5 +1,8 @@
-"""The API reference of the site (docs/api.md) is complete: every module of the package has
-its ``automodule`` block, and every public name has a docstring that autodoc shows.
+"""The site's references are complete. The API reference (docs/api.md): every module of the
+package has its ``automodule`` block, and every public name has a docstring that autodoc
+shows. The TOML reference (docs/toml.md) has every key, each demo's page every flag of the
+demo, and the gallery every demo with its pictures (the parts docs/_ext/generated.py
+makes at build time; scripts/check_site.py checks the built pages for the same).
 
 Public names are those of a module's ``__all__`` (else its names without a leading
 underscore) that the module defines itself: its classes and functions with their
@@ -9,6 +12,7 @@ it does for autodoc). No Sphinx build: the checks read the modules and docs/api.
 
 from __future__ import annotations
 
+import argparse
 import ast
 import importlib
 import inspect
@@ -19,6 +23,7 @@ import re
 import pytest
 
 import nitsche_dolfinx
+from nitsche_dolfinx import cli, schema
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 MODULES = sorted(
@@ -136,3 +141,88 @@ def test_public_methods_have_docstrings():
                     missing.append(f"{name}.{cls.__qualname__}.{key}")
     assert checked > 200  # the methods were found at all
     assert not missing, f"public methods and properties without a docstring: {missing}"
+
+
+def _generated():
+    """docs/_ext/generated.py, the site's generated parts (it needs no Sphinx)."""
+    import sys
+
+    sys.path.insert(0, os.path.join(REPO, "docs", "_ext"))
+    try:
+        import generated
+    finally:
+        sys.path.pop(0)
+    return generated
+
+
+def test_toml_reference_has_every_key():
+    """The TOML page is made from the schema: every table, key, facet selector, obstacle
+    and mesh generator that validation knows is on it, in a table row of its own."""
+    with open(os.path.join(REPO, "docs", "toml.md")) as f:
+        assert "<!-- generated: toml-keys -->" in f.read()
+    text = schema.markdown()
+    rows = set(re.findall(r"^\| `([^`]+)` \|", text, re.M))
+    headers = set(re.findall(r"^### `([^`]+)`", text, re.M))
+    missing = []
+    for name, table in schema.SCHEMA.items():
+        missing += [table.header(name)] * (table.header(name) not in headers)
+        missing += [f"{name}.{key}" for key in table.keys if key not in rows]
+    for registry in (schema.FACET_SELECTORS, schema.OBSTACLES):
+        for name, entry in registry.items():
+            missing += [name] * (name not in headers)
+            missing += [f"{name}.{key}" for key in entry.keys if key not in rows]
+    missing += [name for name in schema.MESH_GENERATORS if name not in rows]
+    assert len(rows) > 80  # the rows were found at all (91 distinct names)
+    assert not missing, f"TOML keys missing from docs/toml.md: {missing}"
+
+
+def test_cli_reference_is_the_parser():
+    """docs/cli.md renders the command's own parser (sphinx-argparse), whose every flag
+    has a help text."""
+    with open(os.path.join(REPO, "docs", "cli.md")) as f:
+        text = f.read()
+    assert ":module: nitsche_dolfinx.cli" in text and ":func: argument_parser" in text
+    silent = []
+    parsers = [cli.argument_parser()]
+    while parsers:
+        parser = parsers.pop()
+        for action in parser._actions:
+            if action.option_strings and not action.help:
+                silent.append(action.option_strings[0])
+            if isinstance(action, argparse._SubParsersAction):
+                parsers += list(action.choices.values())
+    assert not silent, f"flags of nitsche-dolfinx without a help text: {silent}"
+
+
+def test_demo_pages_list_every_flag():
+    """Each demo's page lists every flag of the demo's own parser, and every TOML file of
+    demos/ is offered for download on a demo's page or the gallery."""
+    generated = _generated()
+    names = generated.demo_names()
+    assert len(names) >= 19
+    missing = []
+    for name in names:
+        assert generated.demo_title(name)
+        table = "\n".join(generated.flags_markdown(name))
+        for action in generated.demo_parser(name)._actions:
+            for option in action.option_strings:  # not a part of a longer flag
+                if not re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", table):
+                    missing.append(f"{name} {option}")
+    assert not missing, f"demo flags missing from their pages: {missing}"
+    offered = sorted(toml for tomls in generated.demo_tomls().values() for toml in tomls)
+    present = sorted(os.path.basename(p) for p in os.listdir(os.path.join(REPO, "demos")))
+    assert offered == [p for p in present if p.endswith(".toml")]
+
+
+def test_gallery_has_every_demo():
+    """``make gallery`` stored at least one picture of every demo, made by the demo's own
+    command, and each picture the manifest names is there."""
+    generated = _generated()
+    entries = generated.gallery()
+    assert sorted(entries) == generated.demo_names()
+    for name, entry in entries.items():
+        assert f"demos/{name}.py" in entry["command"], name
+        assert entry["pictures"], f"the gallery has no picture of {name}"
+        for picture in entry["pictures"]:
+            assert os.path.exists(os.path.join(generated.GALLERY, picture["file"])), picture
+            assert picture["caption"]
