@@ -28,6 +28,8 @@ nb_execution_mode = "off"
 nb_custom_formats = {".py": ["demo_reader.read_demo", {}, False]}
 html_theme = "furo"
 autodoc_member_order = "bysource"
+# each parameter's type beside its meaning (from the annotations), defaults in the signature
+autodoc_typehints = "description"
 html_extra_path = ["_ext/index.html"]
 html_favicon = "_ext/favicon.svg"
 #: MathJax 2 from Debian's libjs-mathjax (make docs installs it), copied into the site: the
