@@ -16,11 +16,7 @@ import pytest
 from runs import MPIRUN, environment
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-PAGES = [
-    "docs/getting-started.md",
-    # its block of make demo and make test awaits the comment that says why it is not run
-    pytest.param("README.md", marks=pytest.mark.xfail(strict=True, reason="no not-run comment")),
-]
+PAGES = ["docs/getting-started.md", "README.md"]
 #: A fenced block and the HTML comment right before it, if any.
 BLOCK = re.compile(r"(?:<!--[ \t]*([^\n]*?)[ \t]*-->[ \t]*\n)?^```(\w*)\n(.*?)^```", re.S | re.M)
 #: The commands a shell block may hold to be run here: the interpreter, the command of
