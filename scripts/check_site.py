@@ -163,10 +163,12 @@ def _has_flag(text: str, option: str) -> bool:
 
 
 def option_strings(parser) -> list[str]:
-    """Every option of ``parser`` and of its subcommands."""
+    """Every option of ``parser`` and of its subcommands (but -h, --help: sphinx-argparse
+    leaves them out of the command's page)."""
     options = []
     for action in parser._actions:
-        options += action.option_strings
+        if not isinstance(action, argparse._HelpAction):
+            options += action.option_strings
         for sub in getattr(action, "choices", None) or {}:
             if isinstance(action, argparse._SubParsersAction):
                 options += option_strings(action.choices[sub])
