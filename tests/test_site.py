@@ -226,3 +226,19 @@ def test_gallery_has_every_demo():
         for picture in entry["pictures"]:
             assert os.path.exists(os.path.join(generated.GALLERY, picture["file"])), picture
             assert picture["caption"]
+
+
+def test_docstrings_are_in_one_style():
+    """Google's style (``Args:``, ``Returns:``, ``Raises:``; docs/layout.md), which the site
+    reads with napoleon: no numpy sections and no reST fields, which it would show raw or
+    mix with the others."""
+    other = re.compile(r"^\s*(:param\b|:returns?:|:rtype:|(Parameters|Returns)\n\s*-{3,})", re.M)
+    mixed = []
+    for name in MODULES:
+        module = importlib.import_module(name)
+        members = [m for c in public_classes(module) for m in vars(c).values() if callable(m)]
+        for value in [module, *vars(module).values(), *members]:
+            doc = inspect.getdoc(value) if callable(value) or inspect.ismodule(value) else None
+            if doc and getattr(value, "__module__", name) == name and other.search(doc):
+                mixed.append(f"{name}.{getattr(value, '__qualname__', '')}")
+    assert not mixed, f"docstrings not in Google's style: {mixed}"
