@@ -137,7 +137,8 @@ def run_demo(demo: str, out: Path) -> tuple[float, int]:
 
 def save_png(source: Path, target: Path) -> None:
     """Copy a PNG, re-saved smaller if it is larger than :data:`LARGEST_PNG`: first in 256
-    colours, then scaled down by steps of 0.8."""
+    colours (dithered, so that the colour bars and shaded bodies show no bands), then scaled
+    down by steps of 0.8."""
     if source.stat().st_size <= LARGEST_PNG:
         shutil.copyfile(source, target)
         return
@@ -148,7 +149,8 @@ def save_png(source: Path, target: Path) -> None:
     while True:
         size = (round(image.width * scale), round(image.height * scale))
         smaller = image.resize(size, Image.LANCZOS) if scale < 1.0 else image
-        smaller = smaller.quantize(256, method=Image.MEDIANCUT)
+        palette = smaller.quantize(256, method=Image.Quantize.FASTOCTREE)
+        smaller = smaller.quantize(palette=palette, dither=Image.Dither.FLOYDSTEINBERG)
         data = io.BytesIO()
         smaller.save(data, format="PNG", optimize=True)
         if data.tell() <= LARGEST_PNG or scale < 0.3:
