@@ -11,7 +11,7 @@ export MPLBACKEND := Agg
 export OPENBLAS_NUM_THREADS := 1
 PY = $(shell cat .python-path)
 
-.PHONY: setup demo test test-serial test-mpi lint docs docs-check clean
+.PHONY: setup demo test test-serial test-mpi lint gallery docs docs-check clean
 
 setup:
 	@scripts/setup.sh > .python-path.tmp && tail -n 1 .python-path.tmp > .python-path && rm -f .python-path.tmp
@@ -40,6 +40,11 @@ lint:
 	$(PY) -m pip install --quiet ruff
 	$(PY) -m ruff check nitsche_dolfinx demos tests benchmarks meshes scripts
 	$(PY) -m ruff format --check nitsche_dolfinx demos tests benchmarks meshes scripts
+
+# The site's gallery: every demo run serially (scripts/gallery.py, its flags in one table),
+# its pictures into docs/gallery/<demo>/ and docs/gallery/gallery.json; DEMOS="a b": only those.
+gallery: setup
+	$(PY) scripts/gallery.py $(DEMOS)
 
 # The documentation site (docs/conf.py): the README, docs/*.md, the demos and the API
 # reference, into _site/html; a warning fails the build.

@@ -65,6 +65,8 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.diagnostics import BoundaryAverage
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, PAIRING_COLUMNS
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
+from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import friction_summary
 from nitsche_dolfinx.twobody import BLOCK, block_on_slab_problem
 
@@ -84,15 +86,16 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--mu", type=finite_float, default=0.2, help="friction coefficient")
     parser.add_argument("--v0", type=finite_float, default=1.5, help="initial velocity along x")
     parser.add_argument("--out", default="out/block_on_slab_2d", help="output folder")
-    add_terminal_arguments(parser, draws=None)
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser, parser.parse_args(argv)
 
 
-# The problem, the block's mean velocity and displacement as history columns, and the run:
+# The problem, the block's mean velocity and displacement as history columns, and the
+# run, which keeps the fields of its last time level for the picture (a `Snapshot`):
 
 
 # +
-def run(args):
+def run(args, snapshot):
     problem, cells = block_on_slab_problem(
         friction=args.mu, v0=args.v0, degree=args.degree, gamma0=args.gamma0,
         nitsche_theta=args.nitsche_theta, gamma0_scaling=args.gamma0_scaling,
@@ -107,11 +110,15 @@ def run(args):
     )(BLOCK)
     for name, function in (("mean_velocity", simulation.v), ("mean_displacement", simulation.u)):
         simulation.add_probe(name, BoundaryAverage(problem.mesh, function[0], block))
-    return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)
+    return simulation.run(
+        out=args.out, columns=COLUMNS, output_every=args.output_every, callback=snapshot
+    )
 
 
 # -
-# Where the block stopped, against a rigid block, and where the energy went:
+# Where the block stopped, against a rigid block, and where the energy went; then the
+# energy figure (with $E_\Theta$ less `pairing_energy` plus $\sum D^n$, which never rises)
+# and the block on the slab at the end, coloured by von Mises (pyvista, optional):
 
 
 # +
@@ -120,7 +127,8 @@ def main(argv=None) -> None:
     with one_line_errors(parser):
         method_parameters(args)  # --mu among them: checked before anything is computed
         check_output_folder(args.out)
-        history = run(args)
+        snapshot = Snapshot(at=args.t_end)  # the last time level, for the picture
+        history = run(args, snapshot)
     if MPI.COMM_WORLD.rank != 0:
         return
     rigid = args.v0**2 / (2 * args.mu) if args.mu > 0 else float("inf")
@@ -141,6 +149,14 @@ def main(argv=None) -> None:
         f"history: {os.path.join(args.out, 'history.csv')}; "
         f"fields: {os.path.join(args.out, 'solution.xdmf')}"
     )
+    if not args.no_plot:
+        title = figure_title(
+            f"block on a slab, Coulomb friction mu = {args.mu:g}", args.nitsche_theta,
+            args.gamma0, args.degree, dt=args.dt,
+        )  # fmt: skip
+        energy_figure([history], ["$E^h$"], ["black"], title, os.path.join(args.out, "energy.png"))
+        picture = os.path.join(args.out, "deformed.png")
+        render_deformed(snapshot, 2, "block on a slab", picture, ground=False)
 
 
 if __name__ == "__main__":

@@ -59,6 +59,7 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.c_shape import C_BOTTOM, C_SLOT, c_shape_mesh
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import HISTORY_COLUMNS, PAIRING_COLUMNS
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import run_summary, written_to
 
@@ -66,6 +67,8 @@ MATERIAL = Material(E=100.0, nu=0.3, rho=1.0)
 #: The ground this far below the body: not a multiple of v0 dt, so that the flat
 #: bottom does not land exactly at the end of a step.
 DROP = 0.0525
+#: The time of the picture: the slot closed, its force the largest (at the defaults).
+PICTURE_TIME = 0.46
 #: ``history.csv`` columns: those of every run, each contact's force (1: the slot, 2:
 #: the ground) and the pairings' change of E_Theta.
 COLUMNS = (*HISTORY_COLUMNS, "contact_force_1", "contact_force_2", *PAIRING_COLUMNS)
@@ -81,11 +84,12 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--mesh-size", type=finite_float, default=0.1, help="mesh size h")
     parser.add_argument("--v0", type=finite_float, default=0.5, help="falling speed")
     parser.add_argument("--out", default="out/c_shape_2d", help="output folder")
-    add_terminal_arguments(parser, draws="the energy figure")
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser, parser.parse_args(argv)
 
 
-# The body, its slot paired with itself, the ground under its bottom, and the run:
+# The body, its slot paired with itself, the ground under its bottom, and the run, which
+# keeps the fields at $t = 0.46$, the slot closed, for the picture (a `Snapshot`):
 
 
 # +
@@ -102,17 +106,20 @@ def c_shape_problem(args) -> ContactProblem:
     return problem
 
 
-def run(args):
+def run(args, snapshot):
     simulation = Simulation(
         c_shape_problem(args), scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
         progress=not args.quiet, max_step_cuts=args.max_step_cuts,
     )  # fmt: skip
     args.dt = step_taken(simulation, args.quiet)  # --dt auto: the verlet scheme's step
-    return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)
+    return simulation.run(
+        out=args.out, columns=COLUMNS, output_every=args.output_every, callback=snapshot
+    )
 
 
 # -
-# The run's numbers, the slot's contact and where the energy went:
+# The run's numbers, the slot's contact and where the energy went; then the energy
+# figure and the body with its slot closed, coloured by von Mises (pyvista, optional):
 
 
 # +
@@ -122,7 +129,8 @@ def main(argv=None) -> None:
     with one_line_errors(parser):
         method_parameters(args)  # checked before anything is computed
         check_output_folder(args.out)
-        history = run(args)
+        snapshot = Snapshot(at=PICTURE_TIME)
+        history = run(args, snapshot)
     seconds = time.perf_counter() - start
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -149,6 +157,8 @@ def main(argv=None) -> None:
             h=f"{args.mesh_size:g}", dt=args.dt,
         )  # fmt: skip
         energy_figure([history], ["$E^h$"], ["black"], title, os.path.join(args.out, "energy.png"))
+        picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")
+        render_deformed(snapshot, 2, "C-shaped body, slot closed", picture, ground=False)
 
 
 if __name__ == "__main__":

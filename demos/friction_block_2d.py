@@ -69,6 +69,8 @@ from nitsche_dolfinx.arguments import (
 from nitsche_dolfinx.cases import add_block_probes, block_problem
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
+from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import friction_summary
 
 #: ``history.csv`` columns: those of the 2D/3D demos, the energy balance, and the
@@ -90,16 +92,17 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     parser.add_argument("--E", type=finite_float, default=1e4, help="Young's modulus")
     parser.add_argument("--nx", type=int, default=8, help="cells along the block's width")
     parser.add_argument("--out", default="out/friction_block_2d", help="output folder")
-    add_terminal_arguments(parser, draws=None)
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser, parser.parse_args(argv)
 
 
 # -
-# The block, its mean velocity as a history column, and the run:
+# The block, its mean velocity as a history column, and the run, which keeps the
+# fields of its last time level for the picture (a `Snapshot`):
 
 
 # +
-def run(args):
+def run(args, snapshot):
     problem = block_problem(
         friction=args.mu,
         v0=args.v0,
@@ -122,11 +125,15 @@ def run(args):
         max_step_cuts=args.max_step_cuts,
     )
     add_block_probes(simulation)
-    return simulation.run(out=args.out, columns=COLUMNS, output_every=args.output_every)
+    return simulation.run(
+        out=args.out, columns=COLUMNS, output_every=args.output_every, callback=snapshot
+    )
 
 
 # -
-# The rigid-body prediction, for the summary printed at the end:
+# The rigid-body prediction, for the summary printed at the end; then the energy figure
+# (with $E_\Theta$ plus the friction's work $\sum D^n$, which never rises) and the block
+# at the end, coloured by von Mises (pyvista, optional):
 
 
 # +
@@ -150,17 +157,25 @@ def main(argv=None) -> None:
     with one_line_errors(parser):
         method_parameters(args)  # --mu among them: checked before anything is computed
         check_output_folder(args.out)
-        history = run(args)
-    if MPI.COMM_WORLD.rank == 0:
-        velocity, t = history["mean_velocity"], history["t"]
-        print(
-            f"{rigid_prediction(args)}; computed mean velocity at t = {t[-1]:g}: {velocity[-1]:.6g}"
-        )
-        friction_summary(history, args.mu)
-        print(
-            f"history: {os.path.join(args.out, 'history.csv')}; "
-            f"fields: {os.path.join(args.out, 'solution.xdmf')}"
-        )
+        snapshot = Snapshot(at=args.t_end)  # the last time level, for the picture
+        history = run(args, snapshot)
+    if MPI.COMM_WORLD.rank != 0:
+        return
+    velocity, t = history["mean_velocity"], history["t"]
+    print(f"{rigid_prediction(args)}; computed mean velocity at t = {t[-1]:g}: {velocity[-1]:.6g}")
+    friction_summary(history, args.mu)
+    print(
+        f"history: {os.path.join(args.out, 'history.csv')}; "
+        f"fields: {os.path.join(args.out, 'solution.xdmf')}"
+    )
+    if not args.no_plot:
+        title = figure_title(
+            f"block on a plane, Coulomb friction mu = {args.mu:g}", args.nitsche_theta,
+            args.gamma0, args.degree, dt=args.dt,
+        )  # fmt: skip
+        energy_figure([history], ["$E^h$"], ["black"], title, os.path.join(args.out, "energy.png"))
+        picture = os.path.join(args.out, "deformed.png")
+        render_deformed(snapshot, 2, "block on a plane", picture, ground=False)
 
 
 if __name__ == "__main__":

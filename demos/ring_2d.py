@@ -26,7 +26,7 @@
 # - run it with a `Simulation`, writing `history.csv` (energies, contact force,
 #   penetration at every step) and `solution.xdmf` (displacement, velocity and
 #   von Mises stress, for ParaView);
-# - plot the energy balance.
+# - plot the energy balance and draw the squeezed ring.
 #
 # ## Equation and problem definition
 #
@@ -81,6 +81,7 @@ from nitsche_dolfinx.arguments import (
 )
 from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import run_summary, written_to
 
@@ -94,6 +95,7 @@ RING_CONTACT = 1
 MATERIAL = Material(E=1000.0, nu=0.3, rho=1.0)
 GRAVITY = 1.0
 INITIAL_VELOCITY = (0.0, -1.0)
+PICTURE_TIME = 0.3  # the ring on the ground, nearly at its most squeezed (defaults)
 # -
 
 # ### Command line
@@ -113,7 +115,7 @@ def make_parser() -> argparse.ArgumentParser:
         "--mesh", default=DEFAULT_MESH, help="gmsh .msh file of the ring (from meshes/ring_2d.py)"
     )
     parser.add_argument("--out", default=os.path.join("out", "ring_2d"), help="output folder")
-    add_terminal_arguments(parser)
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser
 
 
@@ -169,8 +171,9 @@ def ring_simulation(args: argparse.Namespace) -> Simulation:
 # $E_\Theta^h$, at most round-off for the hybrid scheme with $\Theta = 1$, the
 # contact force, penetration and interval, the Newton iterations) and the energy
 # figure (`plotting.energy_figure`: $E^h$, its kinetic, elastic and gravity parts
-# and $E_\Theta^h$; their relative changes; the contact force). matplotlib is
-# optional.
+# and $E_\Theta^h$; their relative changes; the contact force), and the ring at
+# $t = 0.3$, squeezed on the ground, coloured by von Mises (a `Snapshot` of the run,
+# drawn by `pictures.render_deformed`). matplotlib and pyvista are optional.
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -181,7 +184,8 @@ def main(argv: list[str] | None = None) -> None:
     with one_line_errors(parser):
         simulation = ring_simulation(args)
         args.dt = step_taken(simulation, args.quiet)  # --dt auto: the verlet scheme's step
-        history = simulation.run(out=args.out, output_every=args.output_every)
+        snapshot = Snapshot(at=PICTURE_TIME)
+        history = simulation.run(out=args.out, output_every=args.output_every, callback=snapshot)
     seconds = time.perf_counter() - start
 
     if MPI.COMM_WORLD.rank == 0:
@@ -194,6 +198,8 @@ def main(argv: list[str] | None = None) -> None:
             )  # fmt: skip
             path = os.path.join(args.out, "ring_2d.png")
             energy_figure([history], ["$E^h$"], ["black"], title, path)
+            picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")
+            render_deformed(snapshot, 2, "ring on the ground", picture, ground=False)
 
 
 if __name__ == "__main__":

@@ -59,6 +59,7 @@ from nitsche_dolfinx.errors import one_line_errors
 from nitsche_dolfinx.facet_selectors import InBox, NormalWithin, tag_facets
 from nitsche_dolfinx.history import FINITE_COLUMNS, HISTORY_COLUMNS
 from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.pictures import Snapshot, render_deformed
 from nitsche_dolfinx.plotting import energy_figure, figure_title
 from nitsche_dolfinx.reports import run_summary, written_to
 
@@ -68,6 +69,8 @@ MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")
 LEFT = 4
 #: The wall x = WALL; the ring's leftmost point is at x = -1.
 WALL = -1.05
+#: The time of the picture: the ring flattened on the wall, nearly at its closest (defaults).
+PICTURE_TIME = 1.4
 # -
 
 
@@ -80,11 +83,12 @@ def parse_arguments(argv=None) -> tuple[argparse.ArgumentParser, argparse.Namesp
     add_parameter_argument(parser, "--E", 10.0)
     parser.add_argument("--v0", type=finite_float, default=1.0, help="throwing speed")
     parser.add_argument("--out", default="out/soft_ring_2d", help="output folder")
-    add_terminal_arguments(parser, draws="the energy figure")
+    add_terminal_arguments(parser, draws="the energy figure and the picture")
     return parser, parser.parse_args(argv)
 
 
-# The ring, its left side tagged, the wall, and the run:
+# The ring, its left side tagged, the wall, and the run, which keeps the fields of one
+# time level for the picture (a `Snapshot`):
 
 
 # +
@@ -102,7 +106,7 @@ def soft_ring_problem(args) -> ContactProblem:
     return problem
 
 
-def run(args):
+def run(args, snapshot):
     problem = soft_ring_problem(args)
     simulation = Simulation(
         problem, scheme_from_arguments(args), dt=args.dt, t_end=args.t_end,
@@ -110,11 +114,15 @@ def run(args):
     )  # fmt: skip
     args.dt = step_taken(simulation, args.quiet)
     columns = (*HISTORY_COLUMNS, *(FINITE_COLUMNS if problem.finite else ()))
-    return simulation.run(out=args.out, columns=columns, output_every=args.output_every)
+    return simulation.run(
+        out=args.out, columns=columns, output_every=args.output_every, callback=snapshot
+    )
 
 
 # -
-# How hard it hit, how far the elements were squeezed, Newton and the energy:
+# How hard it hit, how far the elements were squeezed, Newton and the energy; then the
+# energy figure and the ring flattened on the wall, coloured by von Mises (pyvista,
+# optional):
 
 
 # +
@@ -124,7 +132,8 @@ def main(argv=None) -> None:
     with one_line_errors(parser):
         method_parameters(args)  # checked before anything is computed
         check_output_folder(args.out)
-        history = run(args)
+        snapshot = Snapshot(at=PICTURE_TIME)  # the fields at that time, for the picture
+        history = run(args, snapshot)
     seconds = time.perf_counter() - start
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -142,6 +151,8 @@ def main(argv=None) -> None:
             f"{args.law} ring", args.nitsche_theta, args.gamma0, args.degree, dt=args.dt
         )
         energy_figure([history], ["$E^h$"], ["black"], title, os.path.join(args.out, "energy.png"))
+        picture = os.path.join(args.out, f"deformed_t{PICTURE_TIME:g}.png")
+        render_deformed(snapshot, 2, f"{args.law} ring on the wall", picture, ground=False)
 
 
 if __name__ == "__main__":

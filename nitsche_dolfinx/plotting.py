@@ -106,8 +106,9 @@ def energy_figure(
     """The talk's "Energy E^h for different methods", or one run's energies.
 
     Top: E^h of every run (of one run: E^h, E_Theta^h and the kinetic, elastic and
-    gravity parts, and with a column ``pairing_energy`` E_Theta^h less it, also in the
-    middle). Middle, zoomed on the runs that keep E^h within 2 %: the relative
+    gravity parts; with a column ``pairing_energy`` E_Theta^h less it, with
+    ``friction_dissipation`` plus the friction's work so far: what never rises, also in
+    the middle). Middle, zoomed on the runs that keep E^h within 2 %: the relative
     changes of E^h (thin) and E_Theta^h (thick), where the increases of E_Theta^h
     show. Bottom: the contact force. The first history is the main run.
     """
@@ -136,9 +137,15 @@ def energy_figure(
         for name, label, style in _PARTS:
             top.plot(history["t"], history[name], label=label, **style)
         paired = "pairing_energy" in history and np.any(history["pairing_energy"] != 0)
-        if paired:  # pairs that follow the sliding: what never rises
-            controlled = history["energy_theta"] - history["pairing_energy"]
-            label = r"$E_\Theta^h$ - pairing_energy"
+        friction = "friction_dissipation" in history
+        if paired or friction:  # pairs that follow the sliding, friction: what never rises
+            controlled, label = np.array(history["energy_theta"]), r"$E_\Theta^h$"
+            if paired:
+                controlled -= history["pairing_energy"]
+                label += " - pairing_energy"
+            if friction:
+                controlled += np.cumsum(history["friction_dissipation"])
+                label += r" + $\sum D^n$"
             top.plot(history["t"], controlled, label=label, color="tab:olive", ls=":")
             middle.plot(history["t"], controlled / controlled[0] - 1, color="tab:olive",
                         ls=":", lw=2, label=label)  # fmt: skip

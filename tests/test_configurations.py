@@ -9,6 +9,7 @@ copy whose values are replaced as the flags say. Every column but the wall time
 import os
 import runpy
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -156,8 +157,7 @@ def run_demo(argv: list[str], out: str) -> None:
     """The demo ``argv[0]`` as a script, in this process."""
     path = os.path.join(DEMOS, argv[0])
     saved = sys.argv, list(sys.path)
-    plot = [] if argv[0] == "friction_block_2d.py" else ["--no-plot"]  # it draws nothing
-    sys.argv = [path, *argv[1:], *plot, "--quiet", "--out", out]
+    sys.argv = [path, *argv[1:], "--no-plot", "--quiet", "--out", out]
     sys.path.insert(0, DEMOS)  # disk_2d.py imports ball_3d.py
     try:
         runpy.run_path(path, run_name="__main__")
@@ -214,6 +214,7 @@ def test_configuration_reproduces_demo(tmp_path, name):
     demo = read_history(os.path.join(demo_out, run_folder, "history.csv"))
     configured = read_history(str(tmp_path / "toml" / "history.csv"))
     assert len(demo["t"]) >= 3
+    assert not list(Path(demo_out).rglob("*.png"))  # --no-plot: no figure, no picture
     assert_same_columns(configured, demo)
     # the runs are not trivial: something touched, or the bar left its wall
     touched = demo["contact_force"] if "contact_force" in demo else -demo["sigma_contact"]

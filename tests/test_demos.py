@@ -317,6 +317,32 @@ def test_sliding_disks_demo_contract(tmp_path):
     assert (out / "energy.png").stat().st_size > 10_000
 
 
+#: Demos given their pictures for the site's gallery (scripts/gallery.py), the flags of a
+#: short run that reaches the time of the picture, and the pictures it draws.
+PICTURE_RUNS = {
+    "block_on_slab_2d.py": (("--t-end", "0.1"), ("energy.png", "deformed.png")),
+    "c_shape_2d.py": (
+        ("--mesh-size", "0.2", "--t-end", "0.46"),
+        ("energy.png", "deformed_t0.46.png"),
+    ),
+    "ring_2d.py": (("--t-end", "0.3"), ("ring_2d.png", "deformed_t0.3.png")),
+    "soft_ring_2d.py": (("--t-end", "1.4"), ("energy.png", "deformed_t1.4.png")),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PICTURE_RUNS))
+def test_demo_draws_its_pictures(tmp_path, name):
+    """Unless --no-plot, the demo draws its energy figure and the deformed body."""
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("pyvista")
+    flags, pictures = PICTURE_RUNS[name]
+    out = tmp_path / "out"
+    result = run_demo(name, *flags, "--output-every", "0", "--quiet", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    for picture in pictures:
+        assert (out / picture).stat().st_size > 10_000, picture
+
+
 @pytest.mark.parametrize("largest", [0.5, 5.0, 8.36, 9.99, 10.0, 84.0, 5.2e8])
 def test_colour_scale_of_the_pictures(largest):
     """The von Mises scale of the pictures: a round top above the largest value, in at most

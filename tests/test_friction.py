@@ -148,6 +148,7 @@ def test_friction_mpi_matches_serial():
 
 
 def test_friction_block_demo(tmp_path):
+    import importlib.util
     import os
     import subprocess
     import sys
@@ -171,6 +172,10 @@ def test_friction_block_demo(tmp_path):
     with h5py.File(out / "solution.h5", "r") as h5:
         fields = set(h5["Function"])
     assert {"displacement", "velocity", "von_mises", "slip_velocity", "friction_traction"} <= fields
+    pictures = {"matplotlib": "energy.png", "pyvista": "deformed.png"}  # unless --no-plot
+    for module, picture in pictures.items():
+        if importlib.util.find_spec(module) is not None:
+            assert (out / picture).stat().st_size > 10_000, picture
     bad = subprocess.run(
         [sys.executable, os.path.join(repo, "demos", "friction_block_2d.py"), "--mu", "-1"],
         capture_output=True,
