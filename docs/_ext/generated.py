@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import glob
+import hashlib
 import json
 import os
 import re
@@ -125,6 +126,11 @@ def _figure(path: str, caption: str, width: str = "") -> list[str]:
     return lines + ([f":width: {width}"] if width else []) + ["", caption, "```", ""]
 
 
+def _sha256(path: str) -> str:
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
 def demo_additions(name: str, text: str) -> str:
     """The demo file's text with its first picture under the title and, at the end, its
     pictures, flags and downloads, as jupytext "light" Markdown cells (comments)."""
@@ -143,6 +149,8 @@ def demo_additions(name: str, text: str) -> str:
                  f"Made by `make gallery`, which runs `{entry['command']}` "
                  f"(OUT a folder; {entry['seconds']:.0f} s, version {entry['version']}, "
                  f"commit {entry['commit']}).", ""]  # fmt: skip
+        if entry["demo_sha256"] != _sha256(os.path.join(DEMOS, f"{name}.py")):
+            tail += [f"The demo has changed since: `make gallery DEMOS={name}` redraws them.", ""]
         for picture in pictures:
             tail += _figure(f"../docs/gallery/{picture['file']}", picture["caption"])
     tail += ["## Flags", "", f"`python demos/{name}.py --help` lists them:", ""]
