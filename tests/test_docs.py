@@ -204,3 +204,40 @@ def test_layout_lists_every_module():
     present = {name for name in present if name.endswith(".py")}
     assert present - listed == set(), "modules missing from docs/layout.md"
     assert listed - present == set(), "docs/layout.md lists modules that are gone"
+
+
+#: The start of a Markdown list item: a line so begun within a paragraph starts a list.
+LIST_ITEM = re.compile(r"\s*([-+*]|\d+[.)])\s")
+
+
+def formula_breaks(path: str) -> list[str]:
+    """Lines of ``path`` that break a formula: a line inside $...$ or $$...$$ that Markdown
+    reads as a list item (it ends the paragraph, and the formula's dollars pair wrongly),
+    and a display formula that shares a paragraph with text (MyST pairs its dollars with
+    the text's)."""
+    breaks, inline, fence = [], 0, False
+    lines = open(path).read().split("\n")
+    for number, line in enumerate(lines, 1):
+        if line.startswith("```"):
+            fence = not fence
+        if fence or line.startswith("```") or not line.strip():
+            inline = 0
+            continue
+        if inline and LIST_ITEM.match(line):
+            breaks.append(f"{path}:{number}: {line.strip()}")
+        text = re.sub(r"`[^`]*`", "", line).replace("\\$", "")
+        if text.lstrip().startswith("$$") and inline == 0 and lines[number - 2].strip():
+            breaks.append(f"{path}:{number}: a display formula inside a paragraph")
+        inline = (inline + text.count("$")) % 2 if "$$" not in text else inline
+        if "$$" in text and text.count("$$") % 2:
+            inline = 1 - inline
+    return breaks
+
+
+@pytest.mark.parametrize("page", sorted(p for p in os.listdir(os.path.join(REPO, "docs"))
+                                        if p.endswith(".md")))  # fmt: skip
+def test_formulas_are_not_broken_by_markdown(page):
+    """No line of a formula starts a list item, no display formula sits inside a
+    paragraph of text: both rendered text as math on the site (docs/method.md, sections 4,
+    8 and 13, before they were reflowed)."""
+    assert not formula_breaks(os.path.join(REPO, "docs", page))
