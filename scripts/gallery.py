@@ -53,7 +53,10 @@ CAPTIONS = {
     ("bar_loop_1d", "bar_loop_1d.png"): "The bar of the time loop written out: displacement, "
     "velocity and contact stress at the contact end, and the energy.",
     ("block_on_slab_2d", "energy.png"): "The energies of the block sliding on the slab: the "
-    "kinetic energy goes into the friction's work, and the contact force.",
+    "kinetic energy goes into the friction's work; below, the contact force at the time "
+    "levels. It swings from step to step (the stiff block's stresses at the levels, not at "
+    "the midpoints the steps use): the friction's work, 2.24 = mu_f N times the distance "
+    "slid, gives the steps' normal force N = 1.99, the block's weight.",
     ("block_on_slab_2d", "deformed.png"): "The block at t = 8.5, stopped on the slab some 5.6 "
     "from where it started, coloured by the von Mises stress.",
     ("c_shape_2d", "energy.png"): "The energies of the C-shaped body landing on the ground, "
