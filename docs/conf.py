@@ -21,7 +21,7 @@ extensions = [
     "sphinxarg.ext",
     "generated",
 ]
-include_patterns = ["README.md", "docs/*.md", "docs/api/*.md", "demos/*.py"]
+include_patterns = ["README.md", "docs/*.md", "docs/api/*.md", "demos/*.py"]  # docs/api: made
 myst_enable_extensions = ["dollarmath", "amsmath"]
 myst_heading_anchors = 3
 nb_execution_mode = "off"

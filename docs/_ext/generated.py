@@ -5,7 +5,9 @@
 - on each demo's page (the demo file itself, read by ``demo_reader``): its first picture
   under the title, then its pictures, its flags (from its own parser) and links to
   download the script and its TOML files;
-- the gallery (docs/gallery.md): every demo with its pictures.
+- the gallery (docs/gallery.md): every demo with its pictures;
+- the API reference: a page per module of the package (docs/api/, not committed) and
+  their list with each module's summary (docs/api.md).
 
 The pictures are the stored outputs of ``make gallery`` (``scripts/gallery.py`` runs the
 demos and writes ``docs/gallery/gallery.json``). Each page holds a marker comment,
@@ -26,6 +28,50 @@ import sys
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DEMOS = os.path.join(REPO, "demos")
 GALLERY = os.path.join(REPO, "docs", "gallery")
+API = os.path.join(REPO, "docs", "api")
+
+
+def api_modules() -> list[str]:
+    """The package's public modules (not those whose name starts with ``_``), sorted."""
+    import pkgutil
+
+    import nitsche_dolfinx
+
+    found = pkgutil.iter_modules(nitsche_dolfinx.__path__)
+    return sorted(f"nitsche_dolfinx.{m.name}" for m in found if not m.name.startswith("_"))
+
+
+def api_page(module: str) -> str:
+    """The reference page of ``module``: autodoc of every public member."""
+    return f"# `{module}`\n\n```{{eval-rst}}\n.. automodule:: {module}\n   :members:\n```\n"
+
+
+def write_api_pages(app=None) -> None:
+    """docs/api/MODULE.md for every public module, before Sphinx looks for its sources
+    (a page left by a module that is gone is removed)."""
+    os.makedirs(API, exist_ok=True)
+    pages = {f"{module}.md": api_page(module) for module in api_modules()}
+    for name in os.listdir(API):
+        if name not in pages:
+            os.remove(os.path.join(API, name))
+    for name, text in pages.items():
+        path = os.path.join(API, name)
+        if not os.path.exists(path) or open(path).read() != text:
+            with open(path, "w") as f:
+                f.write(text)
+
+
+def modules_markdown() -> str:
+    """docs/api.md's list: each module, linked to its page, with its docstring's summary."""
+    import importlib
+
+    lines = ["| module | what it holds |", "|---|---|"]
+    for module in api_modules():
+        doc = (importlib.import_module(module).__doc__ or "").strip()
+        summary = " ".join(doc.split("\n\n")[0].split())
+        summary = re.sub(r":(\w+):`", r"{py:\1}`", summary)  # reST's roles in MyST's words
+        lines.append(f"| [`{module}`](api/{module}.md) | {_cell(summary)} |")
+    return "\n".join(lines) + "\n"
 
 
 def demo_names() -> list[str]:
@@ -186,7 +232,7 @@ def _toml_keys() -> str:
     return schema.markdown()
 
 
-MARKERS = {"toml-keys": _toml_keys, "gallery": gallery_markdown}
+MARKERS = {"toml-keys": _toml_keys, "gallery": gallery_markdown, "modules": modules_markdown}
 
 
 def read_source(app, docname: str, source: list[str]) -> None:
@@ -202,5 +248,6 @@ def read_source(app, docname: str, source: list[str]) -> None:
 
 
 def setup(app):
+    app.connect("builder-inited", write_api_pages)
     app.connect("source-read", read_source)
     return {"parallel_read_safe": True}
