@@ -16,7 +16,6 @@ root_doc = "docs/index"
 extensions = [
     "myst_nb",
     "sphinx.ext.autodoc",
-    "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
     "sphinxarg.ext",
     "generated",
