@@ -27,6 +27,7 @@ from .linear_solvers import LINEAR_SOLVERS
 from .material import Material
 from .model import ContactProblem
 from .parameters import CONTACT_METHODS, GAMMA0_SCALINGS, MASS_MATRICES
+from .reports import markdown_table
 from .schemes import SCHEMES, make_scheme, scheme_parameters
 from .simulation import Simulation
 
@@ -278,9 +279,8 @@ def markdown() -> str:
         "names it: `nitsche_theta=1e+300`, `[nitsche] theta = 1e+300`, `--nitsche-theta",
         "1e+300` (docs/method.md section 10).",
         "",
-        "| API | TOML | flag | kind | default: API / TOML / flag | meaning |",
-        "|---|---|---|---|---|---|",
     ]
+    rows = []
     for p in PARAMETERS:
         choices = f" ({_BAR.join(p.key.choices)})" if p.key.choices else ""
         defaults = " / ".join(
@@ -288,10 +288,10 @@ def markdown() -> str:
             for text in (p.api_default_text(), p.key.default_text() * bool(p.toml),
                          p.flag_default_text())
         )  # fmt: skip
-        lines.append(
-            f"| {_cell(p.api())} | {_cell(p.toml)} | {_cell(p.flag)} | {p.key.kind} | "
-            f"{defaults} | {p.key.meaning}{choices} |"
-        )
+        rows.append([_cell(p.api()), _cell(p.toml), _cell(p.flag), p.key.kind, defaults,
+                     p.key.meaning + choices])  # fmt: skip
+    header = ["API", "TOML", "flag", "kind", "default: API / TOML / flag", "meaning"]
+    lines.append(markdown_table(header, rows))
     lines += ["", "Names that differ between the entry points:", ""]
     for p in PARAMETERS:
         names = [p.name, p.toml_key or p.toml, p.dest]

@@ -27,6 +27,7 @@ __all__ = [
     "convergence_acceptance",
     "convergence_table",
     "friction_summary",
+    "markdown_cell",
     "markdown_table",
     "refinement_table",
     "run_summary",
@@ -50,6 +51,11 @@ def _cell(value):
     if isinstance(value, (str, int, np.integer)):
         return value
     return repr(float(value))
+
+
+def markdown_cell(text: str) -> str:
+    """``text`` for a cell of a Markdown table: its bars escaped, which would end the cell."""
+    return text.replace("|", "\\|")
 
 
 def markdown_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:

@@ -23,6 +23,7 @@ from .mesh_generators import GENERATOR_KEYS, MESH_GENERATORS
 from .motion import MOTION_KEYS
 from .obstacles import OBSTACLES
 from .parameter_table import by_name, toml_keys
+from .reports import markdown_cell, markdown_table
 from .valueforms import PROFILES
 
 __all__ = [
@@ -320,25 +321,20 @@ def describe(width: int = 100) -> str:
     return "\n".join(lines)
 
 
-def _cell(text: str) -> str:
-    """Text for a cell of a Markdown table: its bars escaped."""
-    return text.replace("|", "\\|")
-
-
 def _sentence(text: str) -> str:
     """``text`` as a sentence of a Markdown page: a capital, a full stop, bars escaped."""
-    return _cell(text[:1].upper() + text[1:] + ".")
+    return markdown_cell(text[:1].upper() + text[1:] + ".")
 
 
 def _key_table(keys: dict[str, Key]) -> list[str]:
-    rows = ["| key | kind | default | meaning |", "|---|---|---|---|"]
+    rows = []
     for key, spec in keys.items():
         choices = f" (one of {', '.join(f'`{c}`' for c in spec.choices)})" if spec.choices else ""
         default = "**required**" if spec.required else f"`{spec.default_text()}`"
         if spec.shown_default is not None:
-            default = _cell(spec.shown_default)
-        rows.append(f"| `{key}` | {spec.kind} | {default} | {_cell(spec.meaning)}{choices} |")
-    return rows + [""]
+            default = markdown_cell(spec.shown_default)
+        rows.append([f"`{key}`", spec.kind, default, markdown_cell(spec.meaning) + choices])
+    return [markdown_table(["key", "kind", "default", "meaning"], rows), ""]
 
 
 def markdown() -> str:
@@ -364,13 +360,15 @@ def markdown() -> str:
         lines += [f"### `{name}`", "", _sentence(table.meaning), ""] + _key_table(table.keys)
     lines += ["## Mesh generators", "",
               "`[mesh] generator = NAME`: each generator takes some of the `[mesh]` keys above, "
-              "with its own defaults, and tags its facets and cells.", "",
-              "| generator | what it makes | its keys and defaults | its tags |",
-              "|---|---|---|---|"]  # fmt: skip
-    for name, generator in MESH_GENERATORS.items():
-        keys = ", ".join(f"`{key} = {toml_text(value)}`" for key, value in generator.keys.items())
-        meaning, tags = _cell(generator.meaning), _cell(generator.tags)
-        lines.append(f"| `{name}` | {meaning} | {keys} | {tags} |")
+              "with its own defaults, and tags its facets and cells.", ""]  # fmt: skip
+    generators = [
+        [f"`{name}`", markdown_cell(generator.meaning),
+         ", ".join(f"`{key} = {toml_text(value)}`" for key, value in generator.keys.items()),
+         markdown_cell(generator.tags)]
+        for name, generator in MESH_GENERATORS.items()
+    ]  # fmt: skip
+    header = ["generator", "what it makes", "its keys and defaults", "its tags"]
+    lines.append(markdown_table(header, generators))
     lines += ["", "## Obstacles", "", "`[[obstacle]] type = NAME`, NAME one of:", ""]
     for name, obstacle in OBSTACLES.items():
         dimensions = ", ".join(f"{d}D" for d in obstacle.dimensions)

@@ -65,13 +65,15 @@ def modules_markdown() -> str:
     """docs/api.md's list: each module, linked to its page, with its docstring's summary."""
     import importlib
 
-    lines = ["| module | what it holds |", "|---|---|"]
+    from nitsche_dolfinx.reports import markdown_cell, markdown_table
+
+    rows = []
     for module in api_modules():
         doc = (importlib.import_module(module).__doc__ or "").strip()
         summary = " ".join(doc.split("\n\n")[0].split())
         summary = re.sub(r":(\w+):`", r"{py:\1}`", summary)  # reST's roles in MyST's words
-        lines.append(f"| [`{module}`](api/{module}.md) | {_cell(summary)} |")
-    return "\n".join(lines) + "\n"
+        rows.append([f"[`{module}`](api/{module}.md)", markdown_cell(summary)])
+    return markdown_table(["module", "what it holds"], rows) + "\n"
 
 
 def demo_names() -> list[str]:
@@ -155,16 +157,13 @@ def flag_rows(parser: argparse.ArgumentParser) -> list[tuple[str, str]]:
     return rows
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
-
-
 def flags_markdown(name: str) -> list[str]:
     """The table of the demo's flags, as Markdown lines."""
-    lines = ["| flag | meaning |", "|---|---|"]
-    for flag, meaning in flag_rows(demo_parser(name)):
-        lines.append(f"| `{_cell(flag)}` | {_cell(meaning)} |")
-    return lines
+    from nitsche_dolfinx.reports import markdown_cell, markdown_table
+
+    rows = [[f"`{markdown_cell(flag)}`", markdown_cell(meaning)]
+            for flag, meaning in flag_rows(demo_parser(name))]  # fmt: skip
+    return markdown_table(["flag", "meaning"], rows).split("\n")
 
 
 def _figure(path: str, caption: str, width: str = "") -> list[str]:
