@@ -24,7 +24,6 @@ import functools
 import html
 import http.server
 import os
-import re
 import sys
 import threading
 import time
@@ -157,11 +156,6 @@ def _literal(name: str) -> str:
     return "".join(f'<span class="pre">{html.escape(word)}</span>' for word in name.split())
 
 
-def _has_flag(text: str, option: str) -> bool:
-    """Whether ``text`` holds ``option`` as a flag of its own (not a part of a longer one)."""
-    return re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", text) is not None
-
-
 def option_strings(parser) -> list[str]:
     """Every option of ``parser`` and of its subcommands (but -h, --help: sphinx-argparse
     leaves them out of the command's page)."""
@@ -196,13 +190,13 @@ def check_contents(folder: str) -> list[str]:
             problems.append(f"docs/toml.html: no mesh generator {name}")
     text = _text(folder, "docs/cli.html")
     for option in option_strings(cli.argument_parser()):
-        if not _has_flag(text, option):
+        if not generated.has_flag(text, option):
             problems.append(f"docs/cli.html: no flag {option}")
     gallery = _text(folder, "docs/gallery.html")
     for demo in generated.demo_names():
         page = _text(folder, f"demos/{demo}.html")
         for option in option_strings(generated.demo_parser(demo)):
-            if not _has_flag(page, option):
+            if not generated.has_flag(page, option):
                 problems.append(f"demos/{demo}.html: no flag {option}")
         if "<img" not in page:
             problems.append(f"demos/{demo}.html: no picture")

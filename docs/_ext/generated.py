@@ -157,6 +157,12 @@ def flag_rows(parser: argparse.ArgumentParser) -> list[tuple[str, str]]:
     return rows
 
 
+def has_flag(text: str, option: str) -> bool:
+    """Whether ``text`` holds ``option`` as a flag of its own (not a part of a longer one,
+    as ``--compare`` of ``--no-compare``)."""
+    return re.search(rf"(?<![\w-]){re.escape(option)}(?![\w-])", text) is not None
+
+
 def flags_markdown(name: str) -> list[str]:
     """The table of the demo's flags, as Markdown lines."""
     from nitsche_dolfinx.reports import markdown_cell, markdown_table
