@@ -163,9 +163,9 @@ def option_strings(parser) -> list[str]:
     for action in parser._actions:
         if not isinstance(action, argparse._HelpAction):
             options += action.option_strings
-        for sub in getattr(action, "choices", None) or {}:
-            if isinstance(action, argparse._SubParsersAction):
-                options += option_strings(action.choices[sub])
+        if isinstance(action, argparse._SubParsersAction):
+            for subcommand in action.choices.values():
+                options += option_strings(subcommand)
     return options
 
 
