@@ -6,7 +6,7 @@
 ``run`` writes ``OUT/<case>-np<ranks>/history.csv`` for each case, with the demos of
 ``CHECKOUT`` (default: this one) and its package first on the path, so that a checkout of
 an older commit (``git worktree add``) gives the histories from before a change.
-``compare`` reads every history of OLD and NEW: for each column, the largest difference
+``compare`` reads every ``history.csv`` under OLD and the same file under NEW: for each column, the largest difference
 must be at most ``rtol`` times that column's largest absolute value in OLD (the wall
 times ``step_seconds`` are left out); it prints one line per history, the worst column
 first, and for a column beyond ``rtol`` its absolute difference and largest value (a
@@ -26,18 +26,28 @@ import time
 
 import numpy as np
 
-#: case -> (demo script, its flags): the main run only, no figure, no field output (the
-#: friction block draws nothing: it had no --no-plot before this flag was common to all).
+#: case -> (demo script, its flags): every demo at its defaults, the main run only where it
+#: compares others, no figure, no field output.
 CASES = {
     "bar": ("bar_1d.py", ["--no-compare", "--no-plot"]),
+    "bar_loop": ("bar_loop_1d.py", ["--no-plot"]),
+    "compare_methods": ("compare_methods_1d.py", ["--no-plot"]),
+    "convergence": ("convergence_1d.py", ["--no-plot"]),
     "disk": ("disk_2d.py", ["--no-compare", "--no-plot"]),
     "ball": ("ball_3d.py", ["--no-compare", "--no-plot"]),
     "ring": ("ring_2d.py", ["--no-plot"]),
+    "soft_ring": ("soft_ring_2d.py", ["--no-plot"]),
     "two_bars": ("two_bars_1d.py", ["--no-plot"]),
     "two_disks": ("two_disks_2d.py", ["--no-compare", "--no-plot"]),
     "two_balls": ("two_balls_3d.py", ["--no-compare", "--no-plot"]),
+    "sliding_disks": ("sliding_disks_2d.py", ["--no-plot"]),
     "ball_on_slab": ("ball_on_slab_3d.py", ["--no-plot"]),
-    "friction_block": ("friction_block_2d.py", []),
+    "block_on_slab": ("block_on_slab_2d.py", ["--no-plot"]),
+    "friction_block": ("friction_block_2d.py", ["--no-plot"]),
+    "c_shape": ("c_shape_2d.py", ["--no-plot"]),
+    "indenter": ("indenter_2d.py", ["--no-plot"]),
+    "shaker": ("shaker_2d.py", ["--no-plot"]),
+    "rubber_ball": ("rubber_ball_3d.py", ["--no-plot"]),
 }
 COMMON = ["--quiet", "--output-every", "0"]
 IGNORED = ("step_seconds",)
@@ -73,13 +83,19 @@ def read(path: str) -> dict[str, np.ndarray]:
     return {name: data[:, i] for i, name in enumerate(rows[0])}
 
 
+def histories(folder: str) -> list[str]:
+    """Every ``history.csv`` under ``folder`` (a demo that compares runs writes one each)."""
+    found = []
+    for root, _, files in os.walk(folder):
+        if "history.csv" in files:
+            found.append(os.path.relpath(os.path.join(root, "history.csv"), folder))
+    return sorted(found)
+
+
 def compare(old: str, new: str, rtol: float) -> int:
     status = 0
-    for name in sorted(os.listdir(old)):
-        path = os.path.join(old, name, "history.csv")
-        if not os.path.isfile(path):
-            continue
-        other = os.path.join(new, name, "history.csv")
+    for name in histories(old):
+        path, other = os.path.join(old, name), os.path.join(new, name)
         if not os.path.isfile(other):
             print(f"{name}: MISSING in {new}")
             status = 1
