@@ -55,7 +55,7 @@ from petsc4py import PETSc
 
 from nitsche_dolfinx import Simulation, make_scheme
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
+from nitsche_dolfinx.solvers import LINEAR_SOLVERS
 
 #: A variant of the library's presets for comparison: its "lu" with PETSc's own LU.
 PETSC_LU = {"pc_type": "lu", "pc_factor_mat_solver_type": "petsc"}

@@ -35,7 +35,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation, make_scheme
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
+from nitsche_dolfinx.solvers import LINEAR_SOLVERS
 
 #: Height above the plane and speed of the rigid fall at the first contact state.
 HEIGHT, GRAVITY = 0.05, 0.1

@@ -53,8 +53,8 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation, make_scheme, read_history
 from nitsche_dolfinx.cases import bar_problem, impact_problem
-from nitsche_dolfinx.diagnostics import assembled_matrix
-from nitsche_dolfinx.verlet import VerletScheme
+from nitsche_dolfinx.output import assembled_matrix
+from nitsche_dolfinx.steppers import VerletScheme
 
 COST_COLUMNS = ("h", "ranks", "dofs", "explicit_step_ms", "hybrid_free_step_ms", "step_ratio",
                 "explicit_loop_per_step_ms", "hybrid_loop_per_step_ms", "loop_ratio", "dt",

@@ -36,8 +36,8 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.facet_selectors import OnPlane, tag_facets
-from nitsche_dolfinx.history import HISTORY_COLUMNS, angular_momentum_columns
+from nitsche_dolfinx.meshing import OnPlane, tag_facets
+from nitsche_dolfinx.output import HISTORY_COLUMNS, angular_momentum_columns
 
 MOMENTA = ("momentum_x", "momentum_y", *angular_momentum_columns(2))
 

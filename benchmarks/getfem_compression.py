@@ -16,7 +16,7 @@ both codes read; quadrature of degree 5 in both (GetFEM's ``IM_TETRAHEDRON(5)``)
 
 The contact terms
 -----------------
-- This package: :class:`~nitsche_dolfinx.finite_contact.FiniteContact` (docs/method.md
+- This package: :class:`~nitsche_dolfinx.contact.finite.FiniteContact` (docs/method.md
   section 15) through ``ContactProblem.operator``: the gap of x = X + u to the plane along
   its normal, sigma_n = (P N) . n_c, gamma_h = gamma0 h_T (h_T the largest distance between
   two vertices of the cell), Theta = 0 and Theta = 1.
@@ -132,8 +132,8 @@ def package_forces(path: str, gamma0: float, theta: float, depths, law="neo_hook
     from mpi4py import MPI
 
     from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle
-    from nitsche_dolfinx.meshes import load_mesh
-    from nitsche_dolfinx.solver import SNESSolver
+    from nitsche_dolfinx.meshing import load_mesh
+    from nitsche_dolfinx.solvers import SNESSolver
 
     mesh, facet_tags = load_mesh(path, comm=MPI.COMM_SELF)
     problem = ContactProblem(mesh, facet_tags, Material(E=E, nu=NU, law=law),
@@ -191,7 +191,7 @@ def main(argv=None) -> None:
     linear = package_forces(path, args.gamma0, 1.0, depths, "linear")[0]
     for row, force in zip(rows, linear):
         row["F linear / F GetFEM"] = force / row["F GetFEM"]
-    from nitsche_dolfinx.reports import markdown_table
+    from nitsche_dolfinx.post import markdown_table
 
     keys = list(rows[0])
     lines = [f"h = {args.mesh_size}, {dofs} DOFs, gamma0 = {args.gamma0}", "",

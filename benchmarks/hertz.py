@@ -38,8 +38,8 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.reports import markdown_table
+from nitsche_dolfinx.meshing import load_mesh
+from nitsche_dolfinx.post import markdown_table
 
 E, NU, RHO, R = 1.0, 0.3, 1.0, 1.0
 SURFACE, X_PLANE, Y_PLANE, VOLUME = 1, 2, 3, 4  # physical groups of the mesh file

@@ -18,7 +18,7 @@ with the hybrid scheme (or another one, ``--scheme``) for every variant Theta in
 - ``energy_rel_max``: max over t of (E(t) - E(0)) / E(0).
 - ``penetration_max``: max over t of -u(t, 0) = u_n - g at the wall (> 0: penetration).
 - ``l2_error``: sqrt(tau sum_n (u(t_n, 0) - u_exact(t_n, 0))^2), the l2(tau) error at
-  the wall against :func:`nitsche_dolfinx.exact.bar_contact_values`.
+  the wall against :func:`nitsche_dolfinx.cases.exact.bar_contact_values`.
 
 Conclusions printed per variant: the gamma0 values where Newton fails (the first
 one in the sweep) and those where the energy is not bounded, meaning: the run
@@ -63,8 +63,8 @@ from nitsche_dolfinx import (
     bar_mesh,
     make_scheme,
 )
-from nitsche_dolfinx.diagnostics import BoundaryAverage
-from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.cases import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.output import BoundaryAverage
 
 DEFAULT_GAMMA0 = [10.0**k for k in range(-6, 9)]
 DEFAULT_VARIANTS = [1.0, 0.0, -1.0]

@@ -37,9 +37,10 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import HybridScheme, Simulation, compat
+from nitsche_dolfinx import HybridScheme, Simulation
 from nitsche_dolfinx.cases import BAR_COLUMNS, add_bar_probes, bar_simulation
-from nitsche_dolfinx.petsc_snes import SolverSettings
+from nitsche_dolfinx.common import compat
+from nitsche_dolfinx.solvers import SolverSettings
 
 NX, DT, GAMMA0, THETA = 100, 0.015, 1e-6, 1.0
 

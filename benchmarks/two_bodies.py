@@ -4,7 +4,7 @@ at the same number of DOFs (issue 17: a contact step may cost at most 2 times as
 Two runs, made one after the other in the same process, on the same cores:
 
 - the pair: two mirror-image balls (``--dim 3``) or disks (``--dim 2``) of the impact test
-  colliding head-on (:func:`nitsche_dolfinx.twobody.two_bodies_problem`: v0 = 1, gap 1,
+  colliding head-on (:func:`nitsche_dolfinx.cases.two_bodies.two_bodies_problem`: v0 = 1, gap 1,
   gamma0 = 1e-3, unbiased and paired along the axis unless ``--variant`` or
   ``--pairing`` say otherwise), mesh size ``--mesh-size``;
 - the plane: one body of the same kind thrown at v0 on a rigid plane with gamma0 / 2 (the
@@ -46,10 +46,10 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from nitsche_dolfinx import ContactProblem, HybridScheme, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.compat import function_space
-from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
-from nitsche_dolfinx.shapes import ball_mesh, disk_mesh
-from nitsche_dolfinx.twobody import two_bodies_problem
+from nitsche_dolfinx.cases import two_bodies_problem
+from nitsche_dolfinx.common import function_space
+from nitsche_dolfinx.meshing import ball_mesh, disk_mesh
+from nitsche_dolfinx.solvers import LINEAR_SOLVERS
 
 RADIUS, GAMMA0, V0, GAP, DT = 20.0, 1e-3, 1.0, 1.0, 0.1
 

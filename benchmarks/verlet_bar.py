@@ -95,14 +95,21 @@ from nitsche_dolfinx.cases import (
     BAR_COLUMNS,
     BAR_METHODS,
     BarMethod,
+    bar_contact_errors,
     bar_convergence_level,
     bar_problem,
     bar_simulation,
+    observed_orders,
 )
-from nitsche_dolfinx.exact import bar_contact_errors, observed_orders
-from nitsche_dolfinx.plotting import latex_number, pyplot, save, slope_triangle
-from nitsche_dolfinx.reports import markdown_table, write_csv
-from nitsche_dolfinx.schemes import HybridScheme, VerletScheme
+from nitsche_dolfinx.post import (
+    latex_number,
+    markdown_table,
+    pyplot,
+    save,
+    slope_triangle,
+    write_csv,
+)
+from nitsche_dolfinx.steppers import HybridScheme, VerletScheme
 
 #: The runs of a level: key, label, marker.
 RUNS = {

@@ -5,7 +5,8 @@ What it measures
 ----------------
 For each case, variant Theta in {1, 0, -1} and Nitsche parameter gamma0 (``--factors``
 times the case's base gamma0, by default 1e-3, 1e-2, 1e-1, 1, 10), it takes the estimate
-of :class:`nitsche_dolfinx.verlet.ExplicitStepper`, ``stable_dt`` = 2 / sqrt(lambda_max(D^-1
+of :class:`nitsche_dolfinx.steppers.explicit.ExplicitStepper`, ``stable_dt`` = 2 /
+sqrt(lambda_max(D^-1
 K)) (K: the affine terms plus the contact stiffness with all of Gamma_C active, lambda_max
 by power iterations), and measures the critical step: the largest tau = r * stable_dt
 whose run of 2,000 steps (``--steps``; t_end = 2000 tau) stays bounded.
@@ -43,7 +44,7 @@ potential) and E_Theta (``energy_theta``), both equal at t = 0 to the initial ki
 energy (u0 = 0: no elastic energy, no Nitsche term), a run is
 
 - (a) *not blown up*: the stepper did not raise
-  :class:`nitsche_dolfinx.verlet.UnstableStep` (kinetic + |elastic| above 100 times its
+  :class:`nitsche_dolfinx.steppers.explicit.UnstableStep` (kinetic + |elastic| above 100 times its
   largest value up to 100 steps before, or not finite) and every E and E_Theta is finite;
 - (b F) *energy-bounded by F*: (a), and max_n E^n <= F E^0 and max_n E_Theta^n <= F
   E_Theta^0, for F = 1.1 and F = 2. Both energies are watched because each misses a
@@ -115,12 +116,11 @@ from petsc4py import PETSc
 import nitsche_dolfinx
 from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.cases import bar_problem, impact_problem
-from nitsche_dolfinx.diagnostics import assembled_matrix
-from nitsche_dolfinx.dirichlet import DirichletDofs
+from nitsche_dolfinx.meshing import ball_mesh, disk_mesh
 from nitsche_dolfinx.model import ContactProblem
-from nitsche_dolfinx.shapes import ball_mesh, disk_mesh
-from nitsche_dolfinx.stable_step import contact_stiffness_form
-from nitsche_dolfinx.verlet import UnstableStep, VerletScheme
+from nitsche_dolfinx.output import assembled_matrix
+from nitsche_dolfinx.physics import DirichletDofs
+from nitsche_dolfinx.steppers import UnstableStep, VerletScheme, contact_stiffness_form
 
 #: The history columns a run watches.
 COLUMNS = ["t", "energy", "energy_theta", "contact_force", "contact_area"]
@@ -328,7 +328,8 @@ def linear_limits(problem: ContactProblem, stable_dt: float, max_dense: int) -> 
     """The limits of the two extreme contact states from dense eigenvalues of
     D^-1/2 K D^-1/2 (module docstring); NaN above ``max_dense`` dofs. K and D are
     assembled here as the stepper does: the affine terms, the all-active contact part
-    (:func:`~nitsche_dolfinx.stable_step.contact_stiffness_form`), the lumped mass without the
+    (:func:`~nitsche_dolfinx.steppers.stable_step.contact_stiffness_form`), the lumped mass without
+    the
     Dirichlet dofs."""
     nan = float("nan")
     with problem.mass_diagonal().localForm() as local:

@@ -59,7 +59,8 @@ import time
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation, make_scheme
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import IMPACT_SCHEMES, impact_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_parameter_argument,
     add_run_arguments,
@@ -67,19 +68,30 @@ from nitsche_dolfinx.arguments import (
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     petsc_option,
     step_taken,
 )
-from nitsche_dolfinx.cases import IMPACT_SCHEMES, impact_problem
-from nitsche_dolfinx.checkpoint import has_checkpoint
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import FINITE_COLUMNS, FRICTION_HISTORY_COLUMNS, HISTORY_COLUMNS
-from nitsche_dolfinx.linear_solvers import LINEAR_SOLVERS
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import SCHEME_COLOURS, energy_figure, figure_title
-from nitsche_dolfinx.reports import friction_summary, runs_table, steps_text, written_to
-from nitsche_dolfinx.shapes import check_body_mesh
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.meshing import check_body_mesh
+from nitsche_dolfinx.output import (
+    FINITE_COLUMNS,
+    FRICTION_HISTORY_COLUMNS,
+    HISTORY_COLUMNS,
+    has_checkpoint,
+)
+from nitsche_dolfinx.post import (
+    SCHEME_COLOURS,
+    Snapshot,
+    energy_figure,
+    figure_title,
+    friction_summary,
+    render_deformed,
+    runs_table,
+    steps_text,
+    written_to,
+)
+from nitsche_dolfinx.solvers import LINEAR_SOLVERS
 
 # -
 

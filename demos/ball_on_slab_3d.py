@@ -18,7 +18,7 @@
 # ground). `--dim 2` runs a disk on a plate in plane strain, in seconds.
 #
 # It shows how to combine `ContactProblem.add_contact_pair` and `add_obstacle`
-# (`nitsche_dolfinx.twobody.ball_on_slab_problem`), and that the hybrid scheme
+# (`nitsche_dolfinx.cases.two_bodies.ball_on_slab_problem`), and that the hybrid scheme
 # with $\Theta = 1$ keeps its energy control with both: $E_\Theta$ never
 # increases (docs/method.md sections 4 and 11).
 
@@ -30,24 +30,22 @@ import time
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import ball_on_slab_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import HISTORY_COLUMNS
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import written_to
-from nitsche_dolfinx.shapes import check_body_mesh
-from nitsche_dolfinx.twobody import ball_on_slab_problem
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.meshing import check_body_mesh
+from nitsche_dolfinx.output import HISTORY_COLUMNS
+from nitsche_dolfinx.post import Snapshot, energy_figure, figure_title, render_deformed, written_to
 
 PICTURE_TIME = 8.0  # the ball pressed into the slab
 # -

@@ -18,7 +18,7 @@
 #
 # It shows how to
 #
-# - build the bar's `ContactProblem` and `Simulation` (`nitsche_dolfinx.cases`);
+# - build the bar's `ContactProblem` and `Simulation` (`nitsche_dolfinx.cases.one_body`);
 # - run it with `Simulation.run`, with checkpoints and restarts, and with the
 #   hybrid, theta, Newmark or Crank-Nicolson scheme, the penalty or the mixed
 #   method, a lumped or redistributed mass;
@@ -57,23 +57,22 @@ import os
 
 from mpi4py import MPI
 
-from nitsche_dolfinx import cases
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import BAR_COLUMNS
+from nitsche_dolfinx.cases import one_body as cases
+from nitsche_dolfinx.cli import (
     add_mass_argument,
     add_method_arguments,
     add_run_arguments,
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     step_taken,
 )
-from nitsche_dolfinx.cases import BAR_COLUMNS
-from nitsche_dolfinx.checkpoint import has_checkpoint
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.parameters import CONTACT_METHODS, require
-from nitsche_dolfinx.plotting import bar_figure, figure_title
-from nitsche_dolfinx.reports import bar_summary, written_to
+from nitsche_dolfinx.common import CONTACT_METHODS, require
+from nitsche_dolfinx.output import has_checkpoint
+from nitsche_dolfinx.post import bar_figure, bar_summary, figure_title, written_to
 
 # Names of the schemes in the figure and the summary
 SCHEME_LABELS = {"hybrid": "hybrid", "cn": "Crank-Nicolson"}

@@ -40,22 +40,22 @@ import os
 
 from mpi4py import MPI
 
-from nitsche_dolfinx import History, Simulation, cases
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx import History, Simulation
+from nitsche_dolfinx.cases import bar_contact_errors
+from nitsche_dolfinx.cases import one_body as cases
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.exact import bar_contact_errors
+from nitsche_dolfinx.common import require
 from nitsche_dolfinx.output import HistoryWriter, SolutionWriter
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.plotting import bar_figure, figure_title
-from nitsche_dolfinx.reports import written_to
+from nitsche_dolfinx.post import bar_figure, figure_title, written_to
 
 # -
 

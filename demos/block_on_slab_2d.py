@@ -31,7 +31,7 @@
 #
 # - give a contact pair Coulomb friction: `ContactProblem(..., friction=mu_f)`
 #   and `add_contact_pair` (here through
-#   `nitsche_dolfinx.twobody.block_on_slab_problem`);
+#   `nitsche_dolfinx.cases.two_bodies.block_on_slab_problem`);
 # - follow the energy: `friction_dissipation` (the friction's work $D^n$ on the
 #   relative slip), `energy_balance_residual` ($E_\Theta^{n+1} - E_\Theta^n + D^n$)
 #   and `pairing_energy` (the change of $E_\Theta$ at the pairings) in
@@ -53,22 +53,25 @@ import ufl
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import BLOCK, block_on_slab_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
 )
-from nitsche_dolfinx.diagnostics import BoundaryAverage
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, PAIRING_COLUMNS
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import friction_summary
-from nitsche_dolfinx.twobody import BLOCK, block_on_slab_problem
+from nitsche_dolfinx.output import FRICTION_HISTORY_COLUMNS, PAIRING_COLUMNS, BoundaryAverage
+from nitsche_dolfinx.post import (
+    Snapshot,
+    energy_figure,
+    figure_title,
+    friction_summary,
+    render_deformed,
+)
 
 #: ``history.csv`` columns: those of the friction block, the pairings' change of E_Theta,
 #: and the block's mean velocity and displacement along the slab.

@@ -46,22 +46,27 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.c_shape import C_BOTTOM, C_SLOT, c_shape_mesh
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import HISTORY_COLUMNS, PAIRING_COLUMNS
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import run_summary, written_to
+from nitsche_dolfinx.meshing import C_BOTTOM, C_SLOT, c_shape_mesh
+from nitsche_dolfinx.output import HISTORY_COLUMNS, PAIRING_COLUMNS
+from nitsche_dolfinx.post import (
+    Snapshot,
+    energy_figure,
+    figure_title,
+    render_deformed,
+    run_summary,
+    written_to,
+)
 
 MATERIAL = Material(E=100.0, nu=0.3, rho=1.0)
 #: The ground this far below the body: not a multiple of v0 dt, so that the flat

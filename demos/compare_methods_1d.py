@@ -18,7 +18,7 @@
 # It shows how to
 #
 # - run one problem with several contact methods, time schemes and mass matrices
-#   (`nitsche_dolfinx.cases.bar_simulation` and the table `cases.BAR_METHODS`);
+#   (`nitsche_dolfinx.cases.one_body.bar_simulation` and the table `cases.BAR_METHODS`);
 # - measure each run against the exact solution (errors at the contact point,
 #   energy, penetration) and gather the numbers in one table;
 # - draw the four panels of the talk: displacement, velocity and contact
@@ -60,19 +60,25 @@ from dataclasses import replace
 
 from mpi4py import MPI
 
-from nitsche_dolfinx import cases
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import BAR_COLUMNS, BAR_METHODS
+from nitsche_dolfinx.cases import one_body as cases
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     step_taken,
 )
-from nitsche_dolfinx.cases import BAR_COLUMNS, BAR_METHODS
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.plotting import comparison_figure, figure_title
-from nitsche_dolfinx.reports import COMPARISON_COLUMNS, comparison_row, comparison_table, write_csv
+from nitsche_dolfinx.post import (
+    COMPARISON_COLUMNS,
+    comparison_figure,
+    comparison_row,
+    comparison_table,
+    figure_title,
+    write_csv,
+)
 
 COMPARED = ("mixed", "cn", "hybrid", "modified_mass")  # keys of BAR_METHODS, in this order
 # -

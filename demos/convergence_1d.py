@@ -19,9 +19,9 @@
 # It shows how to
 #
 # - refine space and time together, each level one run of the bar
-#   (`nitsche_dolfinx.cases.bar_convergence_level`);
+#   (`nitsche_dolfinx.cases.one_body.bar_convergence_level`);
 # - measure space-time errors against an exact solution with a callback that
-#   `run()` calls after every step (`nitsche_dolfinx.exact.BarSpaceTimeErrors`);
+#   `run()` calls after every step (`nitsche_dolfinx.cases.exact.BarSpaceTimeErrors`);
 # - report observed orders and draw log-log error curves with slope marks.
 #
 # ## The study
@@ -62,22 +62,23 @@ from dataclasses import replace
 
 from mpi4py import MPI
 
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level, bar_simulation
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     step_taken,
 )
-from nitsche_dolfinx.cases import BAR_METHODS, bar_convergence_level, bar_simulation
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.plotting import convergence_figure, figure_title
-from nitsche_dolfinx.reports import (
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.post import (
     CONVERGENCE_ERRORS,
     convergence_acceptance,
+    convergence_figure,
     convergence_table,
+    figure_title,
     write_csv,
 )
 

@@ -61,8 +61,8 @@
 #
 # ## Implementation
 #
-# The test case is `nitsche_dolfinx.cases.impact_problem(dim=2, ...)`: the gmsh
-# disk (`nitsche_dolfinx.shapes.disk_mesh`, second-order geometry), a
+# The test case is `nitsche_dolfinx.cases.one_body.impact_problem(dim=2, ...)`: the gmsh
+# disk (`nitsche_dolfinx.meshing.shapes.disk_mesh`, second-order geometry), a
 # `ContactProblem` with `Material.from_lame(20, 20, rho=1)` (plane strain), a
 # `PlaneObstacle` through the origin with normal $(0, 1)$ on the lower half
 # circle, the body force and the initial displacement. The flags, the runs,

@@ -34,7 +34,7 @@
 # It shows how to
 #
 # - build a frictional `ContactProblem` with `friction=mu_f` (here through
-#   `nitsche_dolfinx.cases.block_problem`);
+#   `nitsche_dolfinx.cases.one_body.block_problem`);
 # - follow where the energy goes: `friction_dissipation` (the work $D^n$ of the
 #   friction term over a step) and `energy_balance_residual`
 #   ($E_\Theta^{n+1} - E_\Theta^n + D^n$) in `history.csv`;
@@ -57,21 +57,25 @@ import sys
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import add_block_probes, block_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
 )
-from nitsche_dolfinx.cases import add_block_probes, block_problem
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import friction_summary
+from nitsche_dolfinx.output import FRICTION_HISTORY_COLUMNS
+from nitsche_dolfinx.post import (
+    Snapshot,
+    energy_figure,
+    figure_title,
+    friction_summary,
+    render_deformed,
+)
 
 #: ``history.csv`` columns: those of the 2D/3D demos, the energy balance, and the
 #: block's mean velocity along the plane.

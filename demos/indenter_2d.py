@@ -40,30 +40,22 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, MovingObstacle, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_run_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.facet_selectors import tag_facets
-from nitsche_dolfinx.history import (
-    HISTORY_COLUMNS,
-    OBSTACLE_COLUMNS,
-    WORK_COLUMNS,
-    contact_columns,
-)
-from nitsche_dolfinx.meshes import block_mesh
-from nitsche_dolfinx.obstacles import SphereObstacle
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import figure_title, work_figure
-from nitsche_dolfinx.reports import written_to
+from nitsche_dolfinx.meshing import block_mesh, tag_facets
+from nitsche_dolfinx.output import HISTORY_COLUMNS, OBSTACLE_COLUMNS, WORK_COLUMNS, contact_columns
+from nitsche_dolfinx.physics import SphereObstacle
+from nitsche_dolfinx.post import Snapshot, figure_title, render_deformed, work_figure, written_to
 
 WIDTH, HEIGHT = 0.2, 0.05  # the slab, m
 RADIUS, GAP = 0.05, 1e-4  # the indenter and its height above the slab at t = 0, m

@@ -71,19 +71,24 @@ import time
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import run_summary, written_to
+from nitsche_dolfinx.meshing import load_mesh
+from nitsche_dolfinx.post import (
+    Snapshot,
+    energy_figure,
+    figure_title,
+    render_deformed,
+    run_summary,
+    written_to,
+)
 
 REPOSITORY = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_MESH = os.path.join(REPOSITORY, "meshes", "ring_2d.msh")

@@ -50,23 +50,27 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_parameter_argument,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     step_taken,
 )
-from nitsche_dolfinx.diagnostics import assemble_global
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import FINITE_COLUMNS, HISTORY_COLUMNS
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import run_summary, written_to
-from nitsche_dolfinx.shapes import BALL_CONTACT, ball_mesh
+from nitsche_dolfinx.meshing import BALL_CONTACT, ball_mesh
+from nitsche_dolfinx.output import FINITE_COLUMNS, HISTORY_COLUMNS, assemble_global
+from nitsche_dolfinx.post import (
+    Snapshot,
+    energy_figure,
+    figure_title,
+    render_deformed,
+    run_summary,
+    written_to,
+)
 
 RADIUS = 1.0
 #: The ground this far below the ball.

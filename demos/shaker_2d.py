@@ -42,24 +42,21 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_run_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.facet_selectors import InBox, tag_cells, tag_facets
-from nitsche_dolfinx.history import DAMPING_COLUMNS, HISTORY_COLUMNS, WORK_COLUMNS
-from nitsche_dolfinx.meshes import BLOCK_CONTACT, block_mesh
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import figure_title, work_figure
-from nitsche_dolfinx.reports import written_to
+from nitsche_dolfinx.meshing import BLOCK_CONTACT, InBox, block_mesh, tag_cells, tag_facets
+from nitsche_dolfinx.output import DAMPING_COLUMNS, HISTORY_COLUMNS, WORK_COLUMNS
+from nitsche_dolfinx.post import Snapshot, figure_title, render_deformed, work_figure, written_to
 
 WIDTH, HEIGHT = 0.2, 0.1  # the block (-0.1, 0.1) x (0, 0.1), m
 ALUMINIUM = Material(E=7e10, nu=0.33, rho=2700.0)

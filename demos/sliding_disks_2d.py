@@ -27,7 +27,7 @@
 # It shows how to
 #
 # - pair two bodies by closest points that follow the sliding
-#   (`nitsche_dolfinx.twobody.two_bodies_problem` with `along_axis=False` and
+#   (`nitsche_dolfinx.cases.two_bodies.two_bodies_problem` with `along_axis=False` and
 #   `follow=True`; `--no-follow` pairs them once, in the reference configuration);
 # - give each body its own velocity (`twobody.body_velocities`);
 # - follow the energy: a new pairing changes the contact terms of $E_\Theta$ at the
@@ -53,28 +53,26 @@ import numpy as np
 from mpi4py import MPI
 from two_balls_3d import run_simulation
 
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import LOWER_BODY, UPPER_BODY, body_velocities, two_bodies_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_mass,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import (
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.meshing import check_body_mesh
+from nitsche_dolfinx.output import (
     HISTORY_COLUMNS,
     PAIRING_COLUMNS,
     angular_momentum_columns,
     body_columns,
     momentum_columns,
 )
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import written_to
-from nitsche_dolfinx.shapes import check_body_mesh
-from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, body_velocities, two_bodies_problem
+from nitsche_dolfinx.post import Snapshot, energy_figure, figure_title, render_deformed, written_to
 
 RADIUS = 20.0
 PICTURE_TIME = 9.0  # in the middle of the sliding, at the default velocities

@@ -17,7 +17,7 @@
 #
 # It shows how to
 #
-# - build two bodies in one mesh (`nitsche_dolfinx.twobody.two_bodies_problem`:
+# - build two bodies in one mesh (`nitsche_dolfinx.cases.two_bodies.two_bodies_problem`:
 #   the gmsh ball of `shapes.py` and its mirror image) and pair their facing
 #   halves with `ContactProblem.add_contact_pair`, along the collision axis
 #   (`--pairing axis`) or with closest points (`--pairing closest`);
@@ -45,25 +45,23 @@ import numpy as np
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_parameter_argument,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.history import HISTORY_COLUMNS, angular_momentum_columns, body_columns
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.pictures import Snapshot, render_deformed
-from nitsche_dolfinx.plotting import energy_figure, figure_title
-from nitsche_dolfinx.reports import written_to
-from nitsche_dolfinx.shapes import ball_mesh, check_body_mesh, disk_mesh
-from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.meshing import ball_mesh, check_body_mesh, disk_mesh
+from nitsche_dolfinx.output import HISTORY_COLUMNS, angular_momentum_columns, body_columns
+from nitsche_dolfinx.post import Snapshot, energy_figure, figure_title, render_deformed, written_to
 
 PICTURE_TIME = 8.0  # about the largest compression, at the default v0 and gap
 # -

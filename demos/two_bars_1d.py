@@ -19,7 +19,7 @@
 # It shows how to
 #
 # - build two bodies in one mesh and pair their facing ends with
-#   `ContactProblem.add_contact_pair` (`nitsche_dolfinx.twobody.two_bars_problem`);
+#   `ContactProblem.add_contact_pair` (`nitsche_dolfinx.cases.two_bodies.two_bars_problem`);
 # - record the total momentum and each bar's mean velocity, and declare each bar a
 #   body (`ContactProblem.add_body`) for its momentum and centre of mass;
 # - measure the errors of the contact duration, the exit velocities and the
@@ -39,28 +39,35 @@ import os
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cases import (
+    LOWER_BODY,
+    UPPER_BODY,
+    add_body_velocity_probes,
+    two_bars_errors,
+    two_bars_problem,
+)
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_terminal_arguments,
     check_output_folder,
     finite_float,
     method_parameters,
+    one_line_errors,
     scheme_from_arguments,
     scheme_mass,
     step_taken,
 )
-from nitsche_dolfinx.errors import one_line_errors
-from nitsche_dolfinx.exact import two_bars_errors
-from nitsche_dolfinx.history import History, body_columns
-from nitsche_dolfinx.parameters import require
-from nitsche_dolfinx.pictures import Worldlines, render_worldlines
-from nitsche_dolfinx.plotting import energy_figure, figure_title, two_bars_figure
-from nitsche_dolfinx.reports import refinement_table, two_bars_summary, write_csv
-from nitsche_dolfinx.twobody import (
-    LOWER_BODY,
-    UPPER_BODY,
-    add_body_velocity_probes,
-    two_bars_problem,
+from nitsche_dolfinx.common import require
+from nitsche_dolfinx.output import History, body_columns
+from nitsche_dolfinx.post import (
+    Worldlines,
+    energy_figure,
+    figure_title,
+    refinement_table,
+    render_worldlines,
+    two_bars_figure,
+    two_bars_summary,
+    write_csv,
 )
 
 #: The columns of history.csv (the output contract of the two-body demos), then the parts

@@ -9,7 +9,7 @@ its lowest point is 0.1 above the ground y = 0. Physical groups:
 - curve 3, "inner": the inner circle.
 
 The file is written in the msh 4.1 ASCII format, which dolfinx reads through
-``nitsche_dolfinx.meshes.load_mesh``. Usage::
+``nitsche_dolfinx.meshing.meshes.load_mesh``. Usage::
 
     python meshes/ring_2d.py                       # meshes/ring_2d.msh, P1, h = 0.12
     python meshes/ring_2d.py --mesh-size 0.05 --order 2 --out meshes/ring_fine_p2.msh
@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 import os
 
-from nitsche_dolfinx.shapes import msh_command
+from nitsche_dolfinx.meshing import msh_command
 
 #: Tag of the ring's surface.
 RING_SURFACE = 1

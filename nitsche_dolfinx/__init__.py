@@ -2,31 +2,34 @@
 
 The method of Chouly, Hild & Renard, "A Nitsche finite element method for
 dynamic contact", M2AN 49 (2015) 481-528. One module per idea, in layers that
-look only down: the formulas (:mod:`~nitsche_dolfinx.material`,
-:mod:`~nitsche_dolfinx.obstacles`, :mod:`~nitsche_dolfinx.contact`,
-:mod:`~nitsche_dolfinx.schemes`), the model (:mod:`~nitsche_dolfinx.model`), the
-assembly and the solver (:mod:`~nitsche_dolfinx.systems`, :mod:`~nitsche_dolfinx.solver`),
-the steps (:mod:`~nitsche_dolfinx.stepper`), the run driver
+look only down: the formulas (:mod:`~nitsche_dolfinx.physics.material`,
+:mod:`~nitsche_dolfinx.physics.obstacles`, :mod:`~nitsche_dolfinx.contact.nitsche`,
+:mod:`~nitsche_dolfinx.steppers.schemes`), the model (:mod:`~nitsche_dolfinx.model.problem`), the
+assembly and the solver (:mod:`~nitsche_dolfinx.assembly.systems`,
+:mod:`~nitsche_dolfinx.solvers.solver`),
+the steps (:mod:`~nitsche_dolfinx.steppers.implicit`), the run driver
 (:mod:`~nitsche_dolfinx.simulation`), the front ends (the names below, TOML files and
 the ``nitsche-dolfinx`` command, the demos); every dolfinx version difference in
-:mod:`~nitsche_dolfinx.compat`. docs/layout.md lists every module.
+:mod:`~nitsche_dolfinx.common.compat`. docs/layout.md lists every module.
 
 Importing the package silences the compiler lines that form compilation logs on
 dolfinx 0.5 (set ``NITSCHE_DOLFINX_VERBOSE=1`` to see them).
 """
 
-from . import compat, form_cache
-from .contact import NitscheContact, hybrid_contact_force, positive_part
-from .diagnostics import BoundaryAverage
-from .history import HISTORY_COLUMNS, History
-from .material import Material
-from .meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
-from .model import ContactProblem
-from .motion import MovingObstacle
-from .obstacles import PlaneObstacle, SignedDistanceObstacle
-from .output import read_history
-from .parameters import ParameterError
-from .schemes import (
+from .common import compat, form_cache
+from .common.parameters import ParameterError
+from .contact.nitsche import NitscheContact, hybrid_contact_force, positive_part
+from .meshing.meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
+from .model.problem import ContactProblem
+from .output.diagnostics import BoundaryAverage
+from .output.history import HISTORY_COLUMNS, History
+from .output.writers import read_history
+from .physics.material import Material
+from .physics.motion import MovingObstacle
+from .physics.obstacles import PlaneObstacle, SignedDistanceObstacle
+from .simulation import Simulation
+from .solvers.solver import SNESSolver, SolverError
+from .steppers.schemes import (
     SCHEMES,
     CrankNicolson,
     HybridScheme,
@@ -35,8 +38,6 @@ from .schemes import (
     VerletScheme,
     make_scheme,
 )
-from .simulation import Simulation
-from .solver import SNESSolver, SolverError
 
 __version__ = "0.1.0"
 

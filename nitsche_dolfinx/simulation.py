@@ -1,9 +1,9 @@
-"""The run driver: a :class:`ContactProblem <nitsche_dolfinx.model.ContactProblem>`
+"""The run driver: a :class:`ContactProblem <nitsche_dolfinx.model.problem.ContactProblem>`
 marched in time, with its history, fields, checkpoints, restarts and signals.
 
 :class:`Simulation` builds the stepper of the problem's method (Nitsche and
-penalty: :class:`~nitsche_dolfinx.stepper.NitscheStepper`; mixed:
-:class:`~nitsche_dolfinx.mixed.MixedStepper`) and runs it; everything around
+penalty: :class:`~nitsche_dolfinx.steppers.implicit.NitscheStepper`; mixed:
+:class:`~nitsche_dolfinx.steppers.mixed.MixedStepper`) and runs it; everything around
 the steps is the same for every method::
 
     simulation = Simulation(problem, HybridScheme(), dt=0.015, t_end=6.0)
@@ -18,25 +18,25 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from .agreement import FailureChannel
-from .checkpoint import CheckpointError, SavedState, load_state, save_state
-from .coercivity import constant_value
-from .collective import collect_garbage_together, garbage_collected_together
-from .history import HISTORY_COLUMNS, History
-from .linear_solvers import LinearSolver
-from .linear_solvers import linear_solver as linear_solver_preset
-from .mixed import MixedStepper
-from .model import ContactProblem
-from .output import HistoryWriter, SolutionWriter, ensure_directory
-from .parameters import OutputParameters, SolverParameters, TimeStepping, require
-from .progress import Progress
-from .schemes import TimeScheme
-from .series import continue_solution
-from .signals import RunInterrupted, StopSignals
-from .solver import SolverError
-from .stepper import NitscheStepper
-from .stepping import Stepper
-from .verlet import ExplicitStepper
+from .common.agreement import FailureChannel
+from .common.collective import collect_garbage_together, garbage_collected_together
+from .common.parameters import OutputParameters, SolverParameters, TimeStepping, require
+from .common.signals import RunInterrupted, StopSignals
+from .contact.coercivity import constant_value
+from .model.problem import ContactProblem
+from .output.checkpoint import CheckpointError, SavedState, load_state, save_state
+from .output.history import HISTORY_COLUMNS, History
+from .output.progress import Progress
+from .output.series import continue_solution
+from .output.writers import HistoryWriter, SolutionWriter, ensure_directory
+from .solvers.linear_solvers import LinearSolver
+from .solvers.linear_solvers import linear_solver as linear_solver_preset
+from .solvers.solver import SolverError
+from .steppers.base import Stepper
+from .steppers.explicit import ExplicitStepper
+from .steppers.implicit import NitscheStepper
+from .steppers.mixed import MixedStepper
+from .steppers.schemes import TimeScheme
 
 __all__ = ["Simulation"]
 
@@ -46,7 +46,7 @@ def _from_stepper(name: str, doc: str) -> property:
 
 
 class Simulation:
-    """March a :class:`~nitsche_dolfinx.model.ContactProblem` in time.
+    """March a :class:`~nitsche_dolfinx.model.problem.ContactProblem` in time.
 
     Args:
         problem: The problem; its ``method`` chooses the stepper.
@@ -55,20 +55,20 @@ class Simulation:
         t_end: Final time T (>= dt), reached exactly: when T is not a multiple of tau,
             the last step is shorter.
         petsc_options: PETSc options for the step's SNES
-            (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+            (see :class:`~nitsche_dolfinx.solvers.solver.SNESSolver`).
         progress: Show the progress on rank 0: one bar on a terminal (with tqdm), else one
-            line per step (:class:`~nitsche_dolfinx.progress.Progress`).
+            line per step (:class:`~nitsche_dolfinx.output.progress.Progress`).
         reuse_jacobian: Assemble the constant bulk Jacobian once and re-factorise only
             when the contact part of the Jacobian changes (the default); False
             re-assembles and re-factorises at every Newton iteration.
         preconditioner_lag: When > 0, keep the last factorised Jacobian as the
             preconditioner of GMRES until a linear solve needs more than this many
-            iterations (see :class:`~nitsche_dolfinx.solver.SNESSolver`).
+            iterations (see :class:`~nitsche_dolfinx.solvers.solver.SNESSolver`).
         guard_friction: With friction, solve each step's Coulomb law by semismooth
             Newton guarded by a reference state (the default; False: plain semismooth
-            Newton on [P_t]_r); see :class:`~nitsche_dolfinx.friction.GuardedNewton`
+            Newton on [P_t]_r); see :class:`~nitsche_dolfinx.steppers.friction.GuardedNewton`
             and docs/method.md section 8.
-        linear_solver: A preset of :mod:`nitsche_dolfinx.linear_solvers` (``"auto"``,
+        linear_solver: A preset of :mod:`nitsche_dolfinx.solvers.linear_solvers` (``"auto"``,
             ``"lu"``, ``"lu-lagged"``, ``"cg-jacobi"``, ``"cg-gamg"``, ``"gmres-gamg"``);
             ``petsc_options`` win over its options, and it sets ``preconditioner_lag``.
             ``"auto"`` (the default) chooses from the problem and ``dt`` (docs/method.md
@@ -161,9 +161,9 @@ class Simulation:
 
     def add_probe(self, name: str, probe: Callable[[], float]) -> None:
         """Add a history column computed by ``probe()`` at every time level (the same
-        number on every rank): a :class:`~nitsche_dolfinx.diagnostics.BoundaryAverage`
+        number on every rank): a :class:`~nitsche_dolfinx.output.diagnostics.BoundaryAverage`
         (a mean over a boundary part or the body), a
-        :class:`~nitsche_dolfinx.diagnostics.PointValue` (a Function at a point), or any
+        :class:`~nitsche_dolfinx.output.diagnostics.PointValue` (a Function at a point), or any
         function. Name it in ``run(columns=...)`` to write it."""
         self._probes[name] = probe
 
@@ -216,10 +216,10 @@ class Simulation:
             restart: Continue from a checkpoint: its folder, or True for
                 ``out/checkpoint``. The history keeps its rows up to the checkpoint
                 and continues; the XDMF series is appended to (see
-                :func:`~nitsche_dolfinx.series.continue_solution`).
+                :func:`~nitsche_dolfinx.output.series.continue_solution`).
 
         Returns:
-            The :class:`~nitsche_dolfinx.history.History`, one row of :meth:`state`
+            The :class:`~nitsche_dolfinx.output.history.History`, one row of :meth:`state`
             values per time level (after a restart, the rows kept from
             ``history.csv`` come first).
 
@@ -227,7 +227,7 @@ class Simulation:
             SolverError: A step's Newton solve failed, also on the cut steps down to
                 tau / 2^max_step_cuts. The history and the fields stay readable up to
                 the last converged step, and that state is saved in ``out/checkpoint``
-                (``error.checkpoint``, a :class:`~nitsche_dolfinx.checkpoint.SavedState`);
+                (``error.checkpoint``, a :class:`~nitsche_dolfinx.output.checkpoint.SavedState`);
                 a restart may change dt, gamma0 and the solver options.
             RunInterrupted: SIGINT or SIGTERM arrived (on any rank): every rank stops
                 after the same step, which is saved the same way.
@@ -279,12 +279,12 @@ class Simulation:
 
     def save_checkpoint(self, folder: str, columns=None) -> SavedState:
         """Save the current time level in the checkpoint folder ``folder`` (collective;
-        see :func:`~nitsche_dolfinx.checkpoint.save_state`)."""
+        see :func:`~nitsche_dolfinx.output.checkpoint.save_state`)."""
         return save_state(self.stepper, folder, columns)
 
     def load_checkpoint(self, folder: str, columns=None) -> SavedState:
         """Restore the time level saved in ``folder`` (collective; any partition of the
-        same mesh reloads it, see :func:`~nitsche_dolfinx.checkpoint.load_state`)."""
+        same mesh reloads it, see :func:`~nitsche_dolfinx.output.checkpoint.load_state`)."""
         return load_state(self.stepper, folder, columns)
 
 

@@ -6,7 +6,8 @@
 ``run`` writes ``OUT/<case>-np<ranks>/history.csv`` for each case, with the demos of
 ``CHECKOUT`` (default: this one) and its package first on the path, so that a checkout of
 an older commit (``git worktree add``) gives the histories from before a change.
-``compare`` reads every ``history.csv`` under OLD and the same file under NEW: for each column, the largest difference
+``compare`` reads every ``history.csv`` under OLD and the same file under NEW: for each column, the
+largest difference
 must be at most ``rtol`` times that column's largest absolute value in OLD (the wall
 times ``step_seconds`` are left out); it prints one line per history, the worst column
 first, and for a column beyond ``rtol`` its absolute difference and largest value (a

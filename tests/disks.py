@@ -1,13 +1,13 @@
 """The disk of the impact test made exactly mirror-symmetric (its left half meshed by gmsh,
 then mirrored node for node), its left half, and pairs of them: meshes without physical
-groups, tagged by :func:`~nitsche_dolfinx.facet_selectors.tag_facets`, for the tests that compare a
+groups, tagged by :func:`~nitsche_dolfinx.meshing.facet_selectors.tag_facets`, for the tests that
+compare a
 body with its half."""
 
 import numpy as np
 from mpi4py import MPI
 
-from nitsche_dolfinx.facet_selectors import OnPlane, tag_facets
-from nitsche_dolfinx.shapes import DISK_CONTACT, DISK_FREE, gmsh_session
+from nitsche_dolfinx.meshing import DISK_CONTACT, DISK_FREE, OnPlane, gmsh_session, tag_facets
 
 RADIUS = 20.0
 #: Facet tag of the cut x = 0 of the half disk.
@@ -65,7 +65,7 @@ def symmetric_disks(
     pair 4 and 5 (the lower body's upper and lower half circles), tagged by
     :func:`tag_facets`; SYMMETRY on the cut of a half. ``msh``: a path where rank 0 also
     writes the mesh, a ``.msh`` file with the cells' physical groups only."""
-    from nitsche_dolfinx.compat import gmsh_model_to_mesh
+    from nitsche_dolfinx.common import gmsh_model_to_mesh
 
     with gmsh_session() as gmsh:
         if comm.rank == 0:

@@ -20,12 +20,10 @@ from nitsche_dolfinx import (
     make_scheme,
 )
 from nitsche_dolfinx.cases import bar_problem
-from nitsche_dolfinx.diagnostics import PointValue
-from nitsche_dolfinx.facet_selectors import NormalWithin, tag_facets
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.obstacles import CylinderObstacle, SphereObstacle
-from nitsche_dolfinx.parameters import OutputParameters, TimeStepping
-from nitsche_dolfinx.shapes import check_body_mesh
+from nitsche_dolfinx.common import OutputParameters, TimeStepping
+from nitsche_dolfinx.meshing import NormalWithin, check_body_mesh, load_mesh, tag_facets
+from nitsche_dolfinx.output import PointValue
+from nitsche_dolfinx.physics import CylinderObstacle, SphereObstacle
 
 
 def bar(**kwargs):

@@ -14,8 +14,13 @@ from nitsche_dolfinx import (
     Simulation,
     ThetaScheme,
 )
-from nitsche_dolfinx.cases import BAR_COLUMNS, add_bar_probes, bar_problem
-from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values
+from nitsche_dolfinx.cases import (
+    BAR_COLUMNS,
+    BAR_ENERGY,
+    add_bar_probes,
+    bar_contact_values,
+    bar_problem,
+)
 
 DT = 0.015
 #: Energy units: twice the round-off of E_Theta, eps/2 (|u|^T |K| |u| + |v|^T |M| |v|) <=

@@ -10,14 +10,12 @@ from mpi4py import MPI
 from runs import assert_one_line_error, run
 
 from nitsche_dolfinx import ContactProblem, Material, Simulation, read_history
-from nitsche_dolfinx.builder import build_simulation
-from nitsche_dolfinx.config import load_config
-from nitsche_dolfinx.facet_selectors import InBox, tag_cells
-from nitsche_dolfinx.history import angular_momentum_columns, body_columns
-from nitsche_dolfinx.meshes import block_mesh
-from nitsche_dolfinx.parameters import ParameterError
-from nitsche_dolfinx.schemes import make_scheme
-from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.cases import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.common import ParameterError
+from nitsche_dolfinx.config import build_simulation, load_config
+from nitsche_dolfinx.meshing import InBox, block_mesh, tag_cells
+from nitsche_dolfinx.output import angular_momentum_columns, body_columns
+from nitsche_dolfinx.steppers import make_scheme
 
 #: Two disks of radius 1 (cells 1 and 2, boundaries 11 and 12), the upper one 0.4 to the
 #: right: an off-centre hit at t = 0.14, when they move towards each other at 0.5.

@@ -30,9 +30,8 @@ from runs import (
 
 from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation, read_history
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE, CheckpointError
-from nitsche_dolfinx.history import HISTORY_COLUMNS
-from nitsche_dolfinx.signals import RunInterrupted
+from nitsche_dolfinx.common import RunInterrupted
+from nitsche_dolfinx.output import CHECKPOINT_FILE, HISTORY_COLUMNS, CheckpointError
 
 # -- 3./4. SIGINT and restart -----------------------------------------------------------------
 

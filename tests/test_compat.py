@@ -1,4 +1,4 @@
-"""One unit test per shim of nitsche_dolfinx.compat, on whichever dolfinx runs the suite."""
+"""One unit test per shim of nitsche_dolfinx.common.compat, on whichever dolfinx runs the suite."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import compat
+from nitsche_dolfinx.common import compat
 
 
 @pytest.fixture

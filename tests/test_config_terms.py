@@ -12,13 +12,11 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx import HybridScheme, Simulation, read_history
-from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cases import impact_problem
 from nitsche_dolfinx.cli import main as cli
-from nitsche_dolfinx.config import ConfigError, history_columns, load_config
-from nitsche_dolfinx.diagnostics import PointValue
-from nitsche_dolfinx.history import HISTORY_COLUMNS
-from nitsche_dolfinx.shapes import DISK_CONTACT, DISK_FREE
+from nitsche_dolfinx.config import ConfigError, build_simulation, history_columns, load_config
+from nitsche_dolfinx.meshing import DISK_CONTACT, DISK_FREE
+from nitsche_dolfinx.output import HISTORY_COLUMNS, PointValue
 
 
 def write(folder, text: str, name: str = "case.toml") -> str:

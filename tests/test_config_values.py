@@ -10,11 +10,17 @@ import numpy as np
 import pytest
 from runs import ring_config
 
-from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cli import main as cli
-from nitsche_dolfinx.config import history_columns, load_config, output_parameters
-from nitsche_dolfinx.schema import FACET_SELECTORS, SCHEMA, describe
-from nitsche_dolfinx.valueforms import PiecewiseLinear, PolynomialField, Ramp, Sine
+from nitsche_dolfinx.config import (
+    FACET_SELECTORS,
+    SCHEMA,
+    build_simulation,
+    describe,
+    history_columns,
+    load_config,
+    output_parameters,
+)
+from nitsche_dolfinx.physics import PiecewiseLinear, PolynomialField, Ramp, Sine
 
 
 def configured(tmp_path, text: str, name: str = "case.toml"):

@@ -9,7 +9,7 @@ from mpi4py import MPI
 from nitsche_dolfinx import HybridScheme, PlaneObstacle, SignedDistanceObstacle, Simulation
 from nitsche_dolfinx.cases import bar_problem
 from nitsche_dolfinx.contact import hybrid_contact_force, positive_part
-from nitsche_dolfinx.diagnostics import assemble_global
+from nitsche_dolfinx.output import assemble_global
 
 
 @pytest.fixture(scope="module")

@@ -11,13 +11,12 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import ContactProblem, Material, ParameterError, Simulation, compat
+from nitsche_dolfinx import ContactProblem, Material, ParameterError, Simulation
 from nitsche_dolfinx.cases import bar_problem, impact_problem
-from nitsche_dolfinx.contact import positive_part
-from nitsche_dolfinx.contact_quadrature import QuadratureContact
-from nitsche_dolfinx.obstacles import SphereObstacle
-from nitsche_dolfinx.parameters import TimeStepping
-from nitsche_dolfinx.verlet import ExplicitStepper, VerletScheme
+from nitsche_dolfinx.common import TimeStepping, compat
+from nitsche_dolfinx.contact import QuadratureContact, positive_part
+from nitsche_dolfinx.physics import SphereObstacle
+from nitsche_dolfinx.steppers import ExplicitStepper, VerletScheme
 
 
 def pressed(problem, depth: float) -> fem.Function:

@@ -9,14 +9,9 @@ docstring of the test gives. Every test runs in about a second.
 import numpy as np
 import pytest
 
-from nitsche_dolfinx import cases
-from nitsche_dolfinx.exact import (
-    BAR_ENERGY,
-    BarSpaceTimeErrors,
-    bar_displacement,
-    observed_orders,
-)
-from nitsche_dolfinx.schemes import make_scheme
+from nitsche_dolfinx.cases import BAR_ENERGY, BarSpaceTimeErrors, bar_displacement, observed_orders
+from nitsche_dolfinx.cases import one_body as cases
+from nitsche_dolfinx.steppers import make_scheme
 
 pytestmark = pytest.mark.mpi  # the errors and probes are reduced over the ranks
 

@@ -12,14 +12,12 @@ import pytest
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, Material, ParameterError, Simulation, read_history
-from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cases import bar_problem, block_problem
-from nitsche_dolfinx.config import ConfigError, history_columns, load_config
-from nitsche_dolfinx.linear_solvers import choose_linear_solver
-from nitsche_dolfinx.meshes import BAR_CLAMPED, bar_mesh
-from nitsche_dolfinx.schemes import make_scheme
-from nitsche_dolfinx.signals import RunInterrupted
-from nitsche_dolfinx.verlet import UnstableStep, VerletScheme
+from nitsche_dolfinx.common import RunInterrupted
+from nitsche_dolfinx.config import ConfigError, build_simulation, history_columns, load_config
+from nitsche_dolfinx.meshing import BAR_CLAMPED, bar_mesh
+from nitsche_dolfinx.solvers import choose_linear_solver
+from nitsche_dolfinx.steppers import UnstableStep, VerletScheme, make_scheme
 
 COLUMNS = ["t", "energy", "energy_theta", "damping_dissipation", "energy_balance_residual"]
 #: The first mode of the bar (0, 1) clamped at x = 1, free at x = 0 (E = rho = 1):

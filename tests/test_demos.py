@@ -16,9 +16,8 @@ from runs import MPIRUN, assert_same_history, assert_xdmf_readable, run
 
 from nitsche_dolfinx import read_history
 from nitsche_dolfinx.cases import BAR_COLUMNS
-from nitsche_dolfinx.history import HISTORY_COLUMNS, body_columns
-from nitsche_dolfinx.pictures import _colour_scale
-from nitsche_dolfinx.series import read_solution
+from nitsche_dolfinx.output import HISTORY_COLUMNS, body_columns, read_solution
+from nitsche_dolfinx.post.pictures import _colour_scale
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))

@@ -1,4 +1,4 @@
-"""The expression language of problem data (nitsche_dolfinx.expressions): formulas against
+"""The expression language of problem data (nitsche_dolfinx.physics.expressions): formulas against
 numpy at the nodes of a mesh, the time as a constant that changes the value without a new
 compilation, piecewise-linear tables, and the refusal of every text outside the language.
 
@@ -17,18 +17,18 @@ import ufl
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import compat, expressions
-from nitsche_dolfinx.expressions import (
+from nitsche_dolfinx.common import ParameterError, compat
+from nitsche_dolfinx.physics import (
     MAX_EXPONENT,
     check_table,
     expression,
+    expressions,
     parse_expression,
     parse_vector,
     table_expression,
     to_ufl,
     vector_expression,
 )
-from nitsche_dolfinx.parameters import ParameterError
 
 KEY = "load.body_force[1]"
 

@@ -16,9 +16,9 @@ from nitsche_dolfinx import (
     ThetaScheme,
     load_mesh,
 )
-from nitsche_dolfinx import stepping as stepping_module
 from nitsche_dolfinx.cases import bar_simulation, block_problem, impact_problem
-from nitsche_dolfinx.stepping import UncontrolledStep
+from nitsche_dolfinx.steppers import UncontrolledStep
+from nitsche_dolfinx.steppers import base as stepping_module
 
 
 def test_t_end_is_reached_exactly_by_a_shorter_last_step():
@@ -153,7 +153,7 @@ def test_explicit_members_are_refused_before_any_computation(scheme, case):
     without (the disk, which crashed in the solver's set-up before), one line names the
     scheme before any computation."""
     from nitsche_dolfinx import NewmarkScheme
-    from nitsche_dolfinx.parameters import ParameterError
+    from nitsche_dolfinx.common import ParameterError
 
     explicit = ThetaScheme(0.0) if scheme == "theta" else NewmarkScheme(0.0, 0.5)
     expected = r"scheme='(theta\(theta=0\)|newmark\(beta=0, gamma=0.5\))': theta = 0 and "

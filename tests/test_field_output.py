@@ -23,12 +23,15 @@ from nitsche_dolfinx import (
     PlaneObstacle,
     Simulation,
 )
-from nitsche_dolfinx.cases import BAR_COLUMNS, bar_simulation, block_problem, impact_problem
-from nitsche_dolfinx.checkpoint import match_points
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.series import read_solution
-from nitsche_dolfinx.shapes import disk_mesh
-from nitsche_dolfinx.twobody import two_bodies_problem
+from nitsche_dolfinx.cases import (
+    BAR_COLUMNS,
+    bar_simulation,
+    block_problem,
+    impact_problem,
+    two_bodies_problem,
+)
+from nitsche_dolfinx.meshing import disk_mesh, load_mesh
+from nitsche_dolfinx.output import match_points, read_solution
 
 CONTACT_FIELDS = {"contact_pressure", "gap", "contact_status"}
 FIELDS = {"displacement", "velocity", "von_mises", *CONTACT_FIELDS}

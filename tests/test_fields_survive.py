@@ -26,8 +26,7 @@ from runs import MPIRUN, command, environment
 
 from nitsche_dolfinx import HybridScheme, Simulation
 from nitsche_dolfinx.cases import block_problem
-from nitsche_dolfinx.checkpoint import match_points
-from nitsche_dolfinx.series import read_solution
+from nitsche_dolfinx.output import match_points, read_solution
 
 # -- reading a series ---------------------------------------------------------------------------
 
@@ -83,7 +82,8 @@ def times_of(series: dict) -> list[float]:
 #: after its first field, the HDF5 file open, until the process is killed.
 KILLED_RUN = """
 import sys, time
-from nitsche_dolfinx import HybridScheme, Simulation, output
+from nitsche_dolfinx import HybridScheme, Simulation
+from nitsche_dolfinx.output import writers as output
 from nitsche_dolfinx.cases import block_problem
 
 out, hold = sys.argv[1], sys.argv[2] == "hold"

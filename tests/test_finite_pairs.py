@@ -16,13 +16,13 @@ from nitsche_dolfinx import (
     Material,
     PlaneObstacle,
     Simulation,
-    finite_contact,
     make_scheme,
 )
-from nitsche_dolfinx.c_shape import C_BOTTOM, C_SLOT, c_shape_mesh
-from nitsche_dolfinx.finite_contact import FinitePairContact
-from nitsche_dolfinx.hyperelastic import gauss_points
-from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.cases import LOWER_BODY, UPPER_BODY, two_bodies_problem
+from nitsche_dolfinx.contact import FinitePairContact
+from nitsche_dolfinx.contact import finite as finite_contact
+from nitsche_dolfinx.meshing import C_BOTTOM, C_SLOT, c_shape_mesh
+from nitsche_dolfinx.physics import gauss_points
 
 DT = 0.1
 #: Newton's tolerance, relative to the scale of the step's equation (the default).

@@ -1,5 +1,5 @@
 """A form whose compilation was killed half-way is compiled again by the next run, instead
-of failing every later run with FFCx's ``TimeoutError`` (nitsche_dolfinx.form_cache)."""
+of failing every later run with FFCx's ``TimeoutError`` (nitsche_dolfinx.common.form_cache)."""
 
 import os
 import subprocess

@@ -8,8 +8,8 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
 from nitsche_dolfinx.cases import add_block_probes, block_problem, impact_problem
-from nitsche_dolfinx.history import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS
-from nitsche_dolfinx.schemes import HybridScheme, make_scheme
+from nitsche_dolfinx.output import FRICTION_HISTORY_COLUMNS, STATE_COLUMNS
+from nitsche_dolfinx.steppers import HybridScheme, make_scheme
 
 DT = 0.05
 

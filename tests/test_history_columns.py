@@ -7,11 +7,11 @@ from disks import symmetric_disks
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import HybridScheme, PlaneObstacle, Simulation, compat
+from nitsche_dolfinx import HybridScheme, PlaneObstacle, Simulation
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.diagnostics import PointValue
-from nitsche_dolfinx.history import HISTORY_COLUMNS, contact_columns
-from nitsche_dolfinx.shapes import DISK_CONTACT
+from nitsche_dolfinx.common import compat
+from nitsche_dolfinx.meshing import DISK_CONTACT
+from nitsche_dolfinx.output import HISTORY_COLUMNS, PointValue, contact_columns
 
 
 def linear_field(x):

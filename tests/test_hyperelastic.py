@@ -19,15 +19,13 @@ from nitsche_dolfinx import (
     Simulation,
     make_scheme,
 )
-from nitsche_dolfinx.builder import build_simulation
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.config import load_config
-from nitsche_dolfinx.facet_selectors import OnPlane, tag_facets
-from nitsche_dolfinx.finite_contact import gateaux
-from nitsche_dolfinx.history import FINITE_COLUMNS, HISTORY_COLUMNS, angular_momentum_columns
-from nitsche_dolfinx.hyperelastic import first_piola, neo_hookean
-from nitsche_dolfinx.material import MaterialConstants
-from nitsche_dolfinx.parameters import ParameterError
+from nitsche_dolfinx.common import ParameterError
+from nitsche_dolfinx.config import build_simulation, load_config
+from nitsche_dolfinx.contact import gateaux
+from nitsche_dolfinx.meshing import OnPlane, tag_facets
+from nitsche_dolfinx.output import FINITE_COLUMNS, HISTORY_COLUMNS, angular_momentum_columns
+from nitsche_dolfinx.physics import MaterialConstants, first_piola, neo_hookean
 
 COLUMNS = (*HISTORY_COLUMNS, *FINITE_COLUMNS, "momentum_x", "momentum_y",
            *angular_momentum_columns(2))  # fmt: skip
@@ -263,7 +261,7 @@ def test_restart_in_contact_continues_the_run_to_the_bit(tmp_path):
 def test_an_inverted_element_is_no_state():
     """A converged state with det F <= 0 somewhere is refused like one that E_Theta does not
     control, with its own one-line reason, and a smaller step may be tried."""
-    from nitsche_dolfinx.stepping import UncontrolledStep, energy_controlled
+    from nitsche_dolfinx.steppers import UncontrolledStep, energy_controlled
 
     values = {"energy": 1.0, "energy_theta": 1.0, "kinetic": 0.5, "elastic": 0.5,
               "potential": 0.0, "det_F_min": -0.01}  # fmt: skip

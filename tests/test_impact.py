@@ -7,17 +7,11 @@ import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from nitsche_dolfinx import (
-    CrankNicolson,
-    HybridScheme,
-    Simulation,
-    compat,
-    facet_jacobian,
-    jacobian_sum,
-)
-from nitsche_dolfinx.assembly import Forms
+from nitsche_dolfinx import CrankNicolson, HybridScheme, Simulation
+from nitsche_dolfinx.assembly import Forms, facet_jacobian, jacobian_sum
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.history import STATE_COLUMNS
+from nitsche_dolfinx.common import compat
+from nitsche_dolfinx.output import STATE_COLUMNS
 
 COLUMNS = STATE_COLUMNS
 

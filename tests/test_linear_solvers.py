@@ -6,7 +6,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import HybridScheme, Simulation
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.linear_solvers import (
+from nitsche_dolfinx.solvers import (
     AUTO_CONTACT_STIFFNESS,
     AUTO_COURANT,
     choose_linear_solver,

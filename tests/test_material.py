@@ -13,12 +13,12 @@ from nitsche_dolfinx import (
     Material,
     PlaneObstacle,
     Simulation,
-    compat,
 )
-from nitsche_dolfinx.diagnostics import assemble_global
-from nitsche_dolfinx.exact import BAR_ENERGY, bar_contact_values, bar_displacement
-from nitsche_dolfinx.material import sigma, von_mises
-from nitsche_dolfinx.meshes import BLOCK_CONTACT, block_mesh
+from nitsche_dolfinx.cases import BAR_ENERGY, bar_contact_values, bar_displacement
+from nitsche_dolfinx.common import compat
+from nitsche_dolfinx.meshing import BLOCK_CONTACT, block_mesh
+from nitsche_dolfinx.output import assemble_global
+from nitsche_dolfinx.physics import sigma, von_mises
 
 
 def test_lame_roundtrip():

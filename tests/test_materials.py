@@ -10,11 +10,10 @@ import pytest
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, compat, make_scheme
-from nitsche_dolfinx.builder import build_simulation
-from nitsche_dolfinx.config import ConfigError, load_config
-from nitsche_dolfinx.meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
-from nitsche_dolfinx.parameters import ParameterError
+from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
+from nitsche_dolfinx.common import ParameterError, compat
+from nitsche_dolfinx.config import ConfigError, build_simulation, load_config
+from nitsche_dolfinx.meshing import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
 
 
 def two_material_bar(nx: int, length: float, interface: float, materials: dict, **keywords):

@@ -13,8 +13,8 @@ from dolfinx import fem
 from mpi4py import MPI
 from runs import MPIRUN, assert_one_line_error, ring_config, run
 
-from nitsche_dolfinx.diagnostics import assemble_global
-from nitsche_dolfinx.meshes import load_mesh, save_mesh
+from nitsche_dolfinx.meshing import load_mesh, save_mesh
+from nitsche_dolfinx.output import assemble_global
 
 SQUARE = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
 TETRAHEDRON = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]

@@ -8,8 +8,8 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
-from nitsche_dolfinx.diagnostics import assemble_global
-from nitsche_dolfinx.meshes import load_mesh, save_mesh
+from nitsche_dolfinx.meshing import load_mesh, save_mesh
+from nitsche_dolfinx.output import assemble_global
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RING = os.path.join(REPO, "meshes", "ring_2d.msh")
@@ -76,7 +76,7 @@ def test_tag_facets_by_plane_normal_box_and_function():
     have the areas of the geometry, on any partition; later selectors win a facet."""
     from dolfinx import mesh as dmesh
 
-    from nitsche_dolfinx.facet_selectors import InBox, NormalWithin, OnPlane, tag_facets
+    from nitsche_dolfinx.meshing import InBox, NormalWithin, OnPlane, tag_facets
 
     mesh = dmesh.create_unit_cube(MPI.COMM_WORLD, 3, 3, 3)
     selectors = {
@@ -98,7 +98,7 @@ def test_tag_facets_keeps_the_tags_of_the_file():
     """New tags on the ring of the gmsh file: the facets of its lower half whose normal
     points down within 30 degrees take tag 7 (a sixth of the outer circle, to one of its
     56 edges, taken from tag 1); the others keep theirs."""
-    from nitsche_dolfinx.facet_selectors import NormalWithin, tag_facets
+    from nitsche_dolfinx.meshing import NormalWithin, tag_facets
 
     mesh, tags = load_mesh(RING)
     lengths = {tag: boundary_length(mesh, tags, tag) for tag in (1, 2, 3)}

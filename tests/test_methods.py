@@ -108,7 +108,7 @@ def test_mixed_method_restarts_through_the_driver(mpi_tmp_path):
     import xml.etree.ElementTree as ElementTree
 
     from nitsche_dolfinx import read_history
-    from nitsche_dolfinx.signals import RunInterrupted
+    from nitsche_dolfinx.common import RunInterrupted
 
     out, straight = (os.path.join(mpi_tmp_path, name) for name in ("interrupted", "straight"))
     options = {"columns": BAR_COLUMNS, "output_every": 10}

@@ -20,12 +20,10 @@ from nitsche_dolfinx import (
     Simulation,
     make_scheme,
 )
-from nitsche_dolfinx.builder import build_simulation
-from nitsche_dolfinx.config import ConfigError, history_columns, load_config
-from nitsche_dolfinx.diagnostics import assemble_global
-from nitsche_dolfinx.history import HISTORY_COLUMNS, OBSTACLE_COLUMNS
-from nitsche_dolfinx.meshes import BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
-from nitsche_dolfinx.obstacles import SphereObstacle
+from nitsche_dolfinx.config import ConfigError, build_simulation, history_columns, load_config
+from nitsche_dolfinx.meshing import BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
+from nitsche_dolfinx.output import HISTORY_COLUMNS, OBSTACLE_COLUMNS, assemble_global
+from nitsche_dolfinx.physics import SphereObstacle
 
 #: The wall's speed and its distance to the bar at t = 0 (it arrives at t = 0.5).
 SPEED, DISTANCE = 0.1, 0.05

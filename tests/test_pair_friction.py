@@ -10,14 +10,13 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx import Simulation
-from nitsche_dolfinx.cases import block_problem
-from nitsche_dolfinx.diagnostics import BoundaryAverage
-from nitsche_dolfinx.material import Material
-from nitsche_dolfinx.meshes import bar_mesh
+from nitsche_dolfinx.cases import BLOCK, SLAB, block_on_slab_problem, block_problem, body_velocities
+from nitsche_dolfinx.common import ParameterError
+from nitsche_dolfinx.meshing import bar_mesh
 from nitsche_dolfinx.model import ContactProblem
-from nitsche_dolfinx.parameters import ParameterError
-from nitsche_dolfinx.schemes import make_scheme
-from nitsche_dolfinx.twobody import BLOCK, SLAB, block_on_slab_problem, body_velocities
+from nitsche_dolfinx.output import BoundaryAverage
+from nitsche_dolfinx.physics import Material
+from nitsche_dolfinx.steppers import make_scheme
 
 DT = 0.05
 MU, V0, G = 0.5, 1.0, 1.0  # a rigid block stops after v0^2 / (2 mu g) = 1, at t = 2
@@ -150,7 +149,7 @@ def test_pair_jacobian_with_friction_is_the_derivative_of_its_residual():
     direction equals the central difference of the residual along it."""
     from petsc4py import PETSc
 
-    from nitsche_dolfinx import compat
+    from nitsche_dolfinx.common import compat
 
     _, simulation = run_pair("theta", t_end=0.5)
     snes = simulation.solver.snes

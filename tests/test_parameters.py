@@ -10,26 +10,24 @@ import numpy as np
 import pytest
 from runs import REPO
 
-from nitsche_dolfinx.arguments import (
+from nitsche_dolfinx.cli import (
     add_method_arguments,
     add_run_arguments,
     add_terminal_arguments,
     method_parameters,
+    under_its_flag,
 )
-from nitsche_dolfinx.config import reported_at
-from nitsche_dolfinx.errors import under_its_flag
-from nitsche_dolfinx.history import History
-from nitsche_dolfinx.obstacles import OBSTACLES
-from nitsche_dolfinx.parameter_table import OWNERS, PARAMETERS, by_name, markdown
-from nitsche_dolfinx.parameters import (
+from nitsche_dolfinx.common import (
     Discretisation,
     NitscheParameters,
     OutputParameters,
     ParameterError,
     TimeStepping,
 )
-from nitsche_dolfinx.schema import SCHEMA
-from nitsche_dolfinx.schemes import SCHEMES, make_scheme
+from nitsche_dolfinx.config import OWNERS, PARAMETERS, SCHEMA, by_name, markdown, reported_at
+from nitsche_dolfinx.output import History
+from nitsche_dolfinx.physics import OBSTACLES
+from nitsche_dolfinx.steppers import SCHEMES, make_scheme
 
 
 @pytest.mark.parametrize(

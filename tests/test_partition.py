@@ -11,10 +11,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from nitsche_dolfinx.gmsh_pipeline import from_root, gmsh_session
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.partition import contact_bisection
-from nitsche_dolfinx.twobody import (
+from nitsche_dolfinx.cases import (
     BALL_BOTTOM,
     LOWER_CONTACT,
     SLAB_BOTTOM,
@@ -24,6 +21,7 @@ from nitsche_dolfinx.twobody import (
     mirrored_bodies_mesh,
     two_bars_mesh,
 )
+from nitsche_dolfinx.meshing import contact_bisection, from_root, gmsh_session, load_mesh
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -167,7 +165,7 @@ def test_error_that_pickle_refuses_reaches_the_other_ranks_as_its_message():
 
 def test_gmsh_leaves_the_sigint_handler_alone():
     """gmsh takes SIGINT (4.8 when imported, 4.9 on when started; 4.13 never puts it
-    back): the runs' handler (nitsche_dolfinx.signals) survives a mesh, and inside the
+    back): the runs' handler (nitsche_dolfinx.common.signals) survives a mesh, and inside the
     session gmsh 4.9 on is told to leave it alone."""
 
     def handler(signum, frame):

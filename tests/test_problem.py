@@ -13,7 +13,7 @@ from nitsche_dolfinx import (
     PlaneObstacle,
     Simulation,
 )
-from nitsche_dolfinx.facet_selectors import tag_facets
+from nitsche_dolfinx.meshing import tag_facets
 
 BOTTOM, TOP = 1, 2
 
@@ -88,7 +88,7 @@ def test_impact_hybrid_energy_theta_never_grows(dim):
 @pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
 def test_parallel_matches_serial_2d(scheme):
     """Energies, forces and penetration on all ranks equal those of a one-rank run."""
-    from nitsche_dolfinx.history import STATE_COLUMNS
+    from nitsche_dolfinx.output import STATE_COLUMNS
 
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
@@ -110,7 +110,7 @@ def test_time_dependent_traction_gives_exact_momentum(scheme):
     import ufl
     from dolfinx import fem
 
-    from nitsche_dolfinx.diagnostics import assemble_global
+    from nitsche_dolfinx.output import assemble_global
 
     msh, tags = block(2, MPI.COMM_WORLD)
     problem = ContactProblem(msh, tags, Material(E=50.0, nu=0.3, rho=2.0))

@@ -12,10 +12,8 @@ import ufl
 from dolfinx import fem
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
-from nitsche_dolfinx.builder import build_simulation
-from nitsche_dolfinx.config import ConfigError, history_columns, load_config
-from nitsche_dolfinx.facet_selectors import tag_facets
-from nitsche_dolfinx.meshes import bar_mesh, block_mesh
+from nitsche_dolfinx.config import ConfigError, build_simulation, history_columns, load_config
+from nitsche_dolfinx.meshing import bar_mesh, block_mesh, tag_facets
 
 #: A free bar (no obstacle, no clamp): (0, 1), E = rho = 1, pushed by f = x t.
 FREE_BAR = """

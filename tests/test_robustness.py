@@ -29,7 +29,7 @@ from runs import (
 )
 
 from nitsche_dolfinx import read_history
-from nitsche_dolfinx.checkpoint import CHECKPOINT_FILE
+from nitsche_dolfinx.output import CHECKPOINT_FILE
 
 # -- 1. bad input: one line naming the value, before any computing ---------------------------
 
@@ -190,7 +190,7 @@ ONE_RANK_SCRIPT = textwrap.dedent(
     """
     import sys
     from mpi4py import MPI
-    from nitsche_dolfinx.errors import one_line_errors
+    from nitsche_dolfinx.cli import one_line_errors
 
     comm = MPI.COMM_WORLD
     with one_line_errors("one-rank", comm, grace=float(sys.argv[2])):

@@ -9,7 +9,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import HybridScheme, ParameterError, Simulation, read_history
 from nitsche_dolfinx.cases import bar_simulation, impact_problem
-from nitsche_dolfinx.history import HISTORY_COLUMNS, History
+from nitsche_dolfinx.output import HISTORY_COLUMNS, History
 
 
 def disk(t_end):

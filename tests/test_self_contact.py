@@ -8,7 +8,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, HybridScheme, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.c_shape import C_BOTTOM, C_SLOT, c_shape_mesh
+from nitsche_dolfinx.meshing import C_BOTTOM, C_SLOT, c_shape_mesh
 
 MESH_SIZE, SLOT, HIGH, V0, DROP = 0.2, 0.2, 1.2, 0.5, 0.0525
 

@@ -12,8 +12,8 @@ from dolfinx import fem
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import compat, shapes
-from nitsche_dolfinx.meshes import load_mesh
+from nitsche_dolfinx.common import compat
+from nitsche_dolfinx.meshing import load_mesh, shapes
 
 RADIUS = 20.0
 

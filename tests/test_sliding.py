@@ -9,7 +9,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from nitsche_dolfinx import HybridScheme, Simulation
-from nitsche_dolfinx.twobody import LOWER_BODY, UPPER_BODY, body_velocities, two_bodies_problem
+from nitsche_dolfinx.cases import LOWER_BODY, UPPER_BODY, body_velocities, two_bodies_problem
 
 MESH_SIZE = 4.0
 #: Each disk moves at (-+VX, -+VY): a grazing hit whose surfaces slide past each other.

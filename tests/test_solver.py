@@ -6,7 +6,8 @@ import ufl
 from dolfinx import fem, mesh
 from mpi4py import MPI
 
-from nitsche_dolfinx import SNESSolver, SolverError, compat
+from nitsche_dolfinx import SNESSolver, SolverError
+from nitsche_dolfinx.common import compat
 
 
 def _nonlinear_poisson(comm):
@@ -119,7 +120,8 @@ def test_jacobian_summed_by_rows_is_the_assembled_jacobian(monkeypatch):
     from dolfinx.fem import petsc as fem_petsc
     from petsc4py import PETSc
 
-    from nitsche_dolfinx import HybridScheme, Simulation, jacobian_sum
+    from nitsche_dolfinx import HybridScheme, Simulation
+    from nitsche_dolfinx.assembly import jacobian_sum
     from nitsche_dolfinx.cases import impact_problem
 
     monkeypatch.setattr(jacobian_sum, "SUM_IN_FULL_BELOW", 0)  # by rows, however small

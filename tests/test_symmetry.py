@@ -17,8 +17,8 @@ from nitsche_dolfinx import (
     ThetaScheme,
 )
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.history import HISTORY_COLUMNS
-from nitsche_dolfinx.shapes import DISK_CONTACT
+from nitsche_dolfinx.meshing import DISK_CONTACT
+from nitsche_dolfinx.output import HISTORY_COLUMNS
 
 #: Columns that are sums over the body: the full disk's are twice the half's.
 HALVED = ("energy", "energy_theta", "kinetic", "elastic", "potential", "contact_force")
@@ -119,7 +119,7 @@ def test_half_disks_in_contact_with_each_other():
     left halves of both held by u_x = 0: the halves' history is half the disks'. The
     Dirichlet dofs enter the pair's coupling, here on both bodies."""
     from nitsche_dolfinx import ContactProblem, Material
-    from nitsche_dolfinx.twobody import body_velocities
+    from nitsche_dolfinx.cases import body_velocities
 
     histories = []
     for half in (False, True):
@@ -149,7 +149,7 @@ def test_roller_moving_in_time_carries_the_body(scheme):
     rigidly, u = (t^2 / 2, 0.1 t), exact for every scheme (constant acceleration): its
     centre of mass and momentum say so, and its elastic energy stays zero (round-off)."""
     from nitsche_dolfinx import ContactProblem, Material
-    from nitsche_dolfinx.meshes import BLOCK_CONTACT, block_mesh
+    from nitsche_dolfinx.meshing import BLOCK_CONTACT, block_mesh
 
     mesh, tags = block_mesh(2.0, 1.0, 4, 2)
     problem = ContactProblem(mesh, tags, Material(E=10.0, nu=0.3, rho=2.0), degree=2)

@@ -5,10 +5,7 @@ import pytest
 from mpi4py import MPI
 
 from nitsche_dolfinx import ContactProblem, HybridScheme, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.meshes import bar_mesh
-from nitsche_dolfinx.parameters import ParameterError
-from nitsche_dolfinx.shapes import DISK_CONTACT, disk_mesh
-from nitsche_dolfinx.twobody import (
+from nitsche_dolfinx.cases import (
     LOWER_BODY,
     LOWER_CONTACT,
     UPPER_BODY,
@@ -17,6 +14,8 @@ from nitsche_dolfinx.twobody import (
     two_bars_problem,
     two_bodies_problem,
 )
+from nitsche_dolfinx.common import ParameterError
+from nitsche_dolfinx.meshing import DISK_CONTACT, bar_mesh, disk_mesh
 
 NX, DT, T = 20, 0.025, 3.0
 
@@ -262,8 +261,8 @@ tags = [1, 2]
 def _configuration(tmp_path, extra=""):
     """The upper disk falls (gravity 0.1) from 1 above on the lower one, held at its
     lower half and sagging too: contact at t = 7.4 (measured with the API)."""
-    from nitsche_dolfinx.meshes import save_mesh
-    from nitsche_dolfinx.twobody import mirrored_bodies_mesh
+    from nitsche_dolfinx.cases import mirrored_bodies_mesh
+    from nitsche_dolfinx.meshing import save_mesh
 
     mesh, _, facets = mirrored_bodies_mesh(2, mesh_size=8.0, order=2, gap=1.0)
     save_mesh(str(tmp_path / "two_disks.xdmf"), mesh, facets)
@@ -273,8 +272,7 @@ def _configuration(tmp_path, extra=""):
 
 
 def test_configuration_sets_up_a_contact_pair(tmp_path):
-    from nitsche_dolfinx.builder import build_simulation
-    from nitsche_dolfinx.config import load_config
+    from nitsche_dolfinx.config import build_simulation, load_config
 
     simulation = build_simulation(load_config(_configuration(tmp_path)), progress=False)
     assert len(simulation.problem.pairs) == 2
@@ -299,8 +297,7 @@ def test_configuration_sets_up_a_contact_pair(tmp_path):
     ],
 )
 def test_configuration_refuses_a_bad_pair(tmp_path, extra, named):
-    from nitsche_dolfinx.builder import build_simulation
-    from nitsche_dolfinx.config import ConfigError, load_config
+    from nitsche_dolfinx.config import ConfigError, build_simulation, load_config
 
     with pytest.raises(ConfigError) as caught:
         build_simulation(load_config(_configuration(tmp_path, extra)), progress=False)
@@ -338,7 +335,7 @@ def test_pair_jacobian_is_the_derivative_of_its_residual(variant):
     only round-off separates them where no quadrature point changes status in between."""
     from petsc4py import PETSc
 
-    from nitsche_dolfinx import compat
+    from nitsche_dolfinx.common import compat
 
     problem, _ = two_bodies_problem(
         dim=2, mesh_size=8.0, v0=1.0, gap=1.0, gamma0=1e-3, variant=variant

@@ -16,8 +16,8 @@ from mpi4py import MPI
 from runs import MESH
 
 from nitsche_dolfinx import ContactProblem, HybridScheme, Material, PlaneObstacle, Simulation
-from nitsche_dolfinx.meshes import load_mesh
-from nitsche_dolfinx.parameters import ParameterError
+from nitsche_dolfinx.common import ParameterError
+from nitsche_dolfinx.meshing import load_mesh
 
 E_SI, RHO_SI, G_SI, DT_SI = 2.1e11, 7800.0, 9.81, 5e-4
 STRESS = E_SI / 1000.0  # the scaled ring has E = 1000, rho = 1
@@ -85,8 +85,7 @@ def test_configuration_takes_gamma0_without_units(tmp_path):
     gamma0 = 1e-6 at E = 1000, through the impact; ``[scheme] max_step_cuts`` is read."""
     from runs import ring_config
 
-    from nitsche_dolfinx.builder import build_simulation
-    from nitsche_dolfinx.config import load_config
+    from nitsche_dolfinx.config import build_simulation, load_config
 
     ground = {"point = [0.0, 0.0]": "point = [0.0, 0.0995]"}  # contact at once
     dimensionless = {

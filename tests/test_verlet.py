@@ -14,9 +14,8 @@ from petsc4py import PETSc
 
 from nitsche_dolfinx import ParameterError, Simulation, read_history
 from nitsche_dolfinx.cases import add_bar_probes, bar_problem, impact_problem
-from nitsche_dolfinx.signals import RunInterrupted
-from nitsche_dolfinx.stable_step import round_down
-from nitsche_dolfinx.verlet import UnstableStep, VerletScheme
+from nitsche_dolfinx.common import RunInterrupted
+from nitsche_dolfinx.steppers import UnstableStep, VerletScheme, round_down
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 BAR_COLUMNS = ["t", "energy", "u_contact", "v_contact", "sigma_contact"]
@@ -210,7 +209,7 @@ def test_an_explicit_scheme_makes_the_demo_step_auto_unless_dt_is_given(flags, d
     """docs/method.md section 12: with --scheme verlet, --dt defaults to the estimate."""
     import argparse
 
-    from nitsche_dolfinx.arguments import add_method_arguments
+    from nitsche_dolfinx.cli import add_method_arguments
 
     parser = argparse.ArgumentParser()
     add_method_arguments(parser, gamma0=1e-6, degree=1, dt=0.015, t_end=6.0)
@@ -230,8 +229,8 @@ def test_two_bars_are_one_bar_on_a_wall_with_half_gamma0():
     another BLAS kernel): 1e-6. A missing or wrong partner term changes them by their
     size."""
     from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle
-    from nitsche_dolfinx.meshes import bar_mesh
-    from nitsche_dolfinx.twobody import two_bars_problem
+    from nitsche_dolfinx.cases import two_bars_problem
+    from nitsche_dolfinx.meshing import bar_mesh
 
     pair, _ = two_bars_problem(nx=20, v0=0.5, gamma0=0.2, mass="lumped")
     mesh, tags = bar_mesh(20)
@@ -258,7 +257,7 @@ def test_two_disks_on_ranks_are_the_disks_serially(along_axis):
     surfaces are paired once: paired again as they slide, the pairing depends on the
     state, whose round-off it amplifies (measured here 4e-11; tests/test_sliding.py
     checks the pairing that follows the sliding on 2 ranks)."""
-    from nitsche_dolfinx.twobody import two_bodies_problem
+    from nitsche_dolfinx.cases import two_bodies_problem
 
     runs = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
@@ -279,8 +278,8 @@ def test_the_coercivity_bound_is_gamma0_E_on_the_bar_and_sufficient_on_the_disk(
     positive semidefinite (dense eigenvalues of D^-1/2 K D^-1/2: its smallest over its
     largest is round-off, -8e-16, at gamma0 E = 0.09; the operator turns indefinite
     between 0.12 and 0.15, the bound reaches 1 at 0.098, measured)."""
-    from nitsche_dolfinx.coercivity import coercivity_ratio
-    from nitsche_dolfinx.diagnostics import assembled_matrix
+    from nitsche_dolfinx.contact import coercivity_ratio
+    from nitsche_dolfinx.output import assembled_matrix
 
     for gamma0 in (0.1, 0.5):
         assert coercivity_ratio(bar_problem(nx=20, gamma0=gamma0)) == pytest.approx(gamma0)

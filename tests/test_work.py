@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 
 from nitsche_dolfinx import ContactProblem, Material, PlaneObstacle, Simulation, make_scheme
-from nitsche_dolfinx.builder import build_simulation
-from nitsche_dolfinx.config import history_columns, load_config
-from nitsche_dolfinx.meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, block_mesh
-from nitsche_dolfinx.work import reaction_columns
+from nitsche_dolfinx.config import build_simulation, history_columns, load_config
+from nitsche_dolfinx.meshing import BAR_CLAMPED, BAR_CONTACT, bar_mesh, block_mesh
+from nitsche_dolfinx.steppers import reaction_columns
 
 #: The bar (0, 1), E = rho = 1, clamped at x = 1: g its gravity along -x.
 GRAVITY = 0.1
@@ -124,7 +123,7 @@ def test_reactions_per_tag_and_component():
     """A block clamped at its bottom, its top pushed down by a traction: the bottom's
     reaction has an x and a y column, and each changes the momentum as it should."""
     mesh, tags = block_mesh(2.0, 1.0, 8, 4)
-    from nitsche_dolfinx.facet_selectors import tag_facets
+    from nitsche_dolfinx.meshing import tag_facets
 
     tags = tag_facets(mesh, {2: lambda x: np.isclose(x[1], 1.0)}, tags)
     problem = ContactProblem(mesh, tags, Material(E=100.0, nu=0.3, rho=1.0), degree=2)
@@ -191,9 +190,9 @@ def test_momentum_changes_by_the_contact_force_too(monkeypatch):
     from dolfinx.fem import petsc as fem_petsc
     from petsc4py import PETSc
 
-    from nitsche_dolfinx import compat
-    from nitsche_dolfinx.contact_terms import contact_parts
-    from nitsche_dolfinx.stepper import NitscheStepper
+    from nitsche_dolfinx.common import compat
+    from nitsche_dolfinx.contact import contact_parts
+    from nitsche_dolfinx.steppers import NitscheStepper
 
     simulation = shaken_bar("hybrid", t_end=3.0)
     stepper, problem = simulation.stepper, simulation.problem

@@ -1,6 +1,6 @@
 """The parts of the site made from the code when it is built, so that they cannot go stale:
 
-- the TOML reference (docs/toml.md): :func:`nitsche_dolfinx.schema.markdown`, from the
+- the TOML reference (docs/toml.md): :func:`nitsche_dolfinx.config.schema.markdown`, from the
   objects that validate a file;
 - on each demo's page (the demo file itself, read by ``demo_reader``): its first picture
   under the title, then its pictures, its flags (from its own parser) and links to
@@ -65,7 +65,7 @@ def modules_markdown() -> str:
     """docs/api.md's list: each module, linked to its page, with its docstring's summary."""
     import importlib
 
-    from nitsche_dolfinx.reports import markdown_cell, markdown_table
+    from nitsche_dolfinx.post import markdown_cell, markdown_table
 
     rows = []
     for module in api_modules():
@@ -165,7 +165,7 @@ def has_flag(text: str, option: str) -> bool:
 
 def flags_markdown(name: str) -> list[str]:
     """The table of the demo's flags, as Markdown lines."""
-    from nitsche_dolfinx.reports import markdown_cell, markdown_table
+    from nitsche_dolfinx.post import markdown_cell, markdown_table
 
     rows = [[f"`{markdown_cell(flag)}`", markdown_cell(meaning)]
             for flag, meaning in flag_rows(demo_parser(name))]  # fmt: skip
@@ -232,7 +232,7 @@ def gallery_markdown() -> str:
 
 
 def _toml_keys() -> str:
-    from nitsche_dolfinx import schema
+    from nitsche_dolfinx.config import schema
 
     return schema.markdown()
 

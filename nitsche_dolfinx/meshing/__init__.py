@@ -1,0 +1,91 @@
+"""Meshes: loading and saving them (`meshes`), tagging facets and cells (`facet_selectors`),
+the one gmsh pipeline (`gmsh_pipeline`) and the contact-aware partition (`partition`), the
+gmsh shapes of the test cases (`shapes`, `c_shape`), bodies as parts of a mesh (`bodies`).
+"""
+
+from .bodies import Body, make_body
+from .c_shape import C_BOTTOM, C_SLOT, c_shape_mesh
+from .facet_selectors import (
+    InBox,
+    NormalWithin,
+    OnPlane,
+    facet_cells,
+    facet_vertices,
+    tag_cells,
+    tag_facets,
+)
+from .gmsh_pipeline import distribute, from_root, gmsh_session
+from .meshes import (
+    BAR_CLAMPED,
+    BAR_CONTACT,
+    BLOCK_CONTACT,
+    MAX_CELLS,
+    bar_mesh,
+    block_mesh,
+    cell_diameter,
+    load_mesh,
+    save_mesh,
+)
+from .partition import contact_bisection
+from .shapes import (
+    BALL_CONTACT,
+    BALL_FREE,
+    BALL_VOLUME,
+    DISK_CONTACT,
+    DISK_FREE,
+    DISK_SURFACE,
+    add_ball_halves,
+    add_disk_halves,
+    ball_mesh,
+    build_ball_model,
+    build_disk_model,
+    check_body_mesh,
+    disk_mesh,
+    generate,
+    msh_command,
+    set_mesh_size,
+)
+
+__all__ = [
+    "BALL_CONTACT",
+    "BALL_FREE",
+    "BALL_VOLUME",
+    "BAR_CLAMPED",
+    "BAR_CONTACT",
+    "BLOCK_CONTACT",
+    "Body",
+    "C_BOTTOM",
+    "C_SLOT",
+    "DISK_CONTACT",
+    "DISK_FREE",
+    "DISK_SURFACE",
+    "InBox",
+    "MAX_CELLS",
+    "NormalWithin",
+    "OnPlane",
+    "add_ball_halves",
+    "add_disk_halves",
+    "ball_mesh",
+    "bar_mesh",
+    "block_mesh",
+    "build_ball_model",
+    "build_disk_model",
+    "c_shape_mesh",
+    "cell_diameter",
+    "check_body_mesh",
+    "contact_bisection",
+    "disk_mesh",
+    "distribute",
+    "facet_cells",
+    "facet_vertices",
+    "from_root",
+    "generate",
+    "gmsh_session",
+    "load_mesh",
+    "make_body",
+    "msh_command",
+    "save_mesh",
+    "set_mesh_size",
+    "tag_cells",
+    "tag_facets",
+]
