@@ -1,16 +1,17 @@
 """nitsche-dolfinx: dynamic contact in elastodynamics by Nitsche's method, for FEniCSx.
 
 The method of Chouly, Hild & Renard, "A Nitsche finite element method for
-dynamic contact", M2AN 49 (2015) 481-528. One module per idea, in layers that
-look only down: the formulas (:mod:`~nitsche_dolfinx.physics.material`,
-:mod:`~nitsche_dolfinx.physics.obstacles`, :mod:`~nitsche_dolfinx.contact.nitsche`,
-:mod:`~nitsche_dolfinx.steppers.schemes`), the model (:mod:`~nitsche_dolfinx.model.problem`), the
-assembly and the solver (:mod:`~nitsche_dolfinx.assembly.systems`,
-:mod:`~nitsche_dolfinx.solvers.solver`),
-the steps (:mod:`~nitsche_dolfinx.steppers.implicit`), the run driver
-(:mod:`~nitsche_dolfinx.simulation`), the front ends (the names below, TOML files and
-the ``nitsche-dolfinx`` command, the demos); every dolfinx version difference in
-:mod:`~nitsche_dolfinx.common.compat`. docs/layout.md lists every module.
+dynamic contact", M2AN 49 (2015) 481-528. One module per idea, in folders that are
+layers and look only down (:data:`LAYERS`, lowest first): what every layer uses
+(:mod:`~nitsche_dolfinx.common`), meshes (:mod:`~nitsche_dolfinx.meshing`), the
+continuum and its data (:mod:`~nitsche_dolfinx.physics`), the contact terms
+(:mod:`~nitsche_dolfinx.contact`), assembly (:mod:`~nitsche_dolfinx.assembly`), what a
+run measures and writes (:mod:`~nitsche_dolfinx.output`), the model
+(:mod:`~nitsche_dolfinx.model`), the solvers (:mod:`~nitsche_dolfinx.solvers`), the time
+steps (:mod:`~nitsche_dolfinx.steppers`), the run driver
+(:mod:`~nitsche_dolfinx.simulation`), the test cases (:mod:`~nitsche_dolfinx.cases`),
+after a run (:mod:`~nitsche_dolfinx.post`), TOML files (:mod:`~nitsche_dolfinx.config`)
+and the command line (:mod:`~nitsche_dolfinx.cli`). docs/layout.md lists every module.
 
 Importing the package silences the compiler lines that form compilation logs on
 dolfinx 0.5 (set ``NITSCHE_DOLFINX_VERBOSE=1`` to see them).
@@ -41,6 +42,25 @@ from .steppers.schemes import (
 
 __version__ = "0.1.0"
 
+#: The package's layers, lowest first: a folder (or top-level module) imports only those
+#: before it (tests/test_layers.py checks it).
+LAYERS = (
+    "common",
+    "meshing",
+    "physics",
+    "contact",
+    "assembly",
+    "output",
+    "model",
+    "solvers",
+    "steppers",
+    "simulation",
+    "cases",
+    "post",
+    "config",
+    "cli",
+)
+
 compat.quiet_form_compilation()
 form_cache.recover_abandoned_compilations()
 
@@ -53,6 +73,7 @@ __all__ = [
     "HISTORY_COLUMNS",
     "History",
     "HybridScheme",
+    "LAYERS",
     "Material",
     "NewmarkScheme",
     "NitscheContact",

@@ -173,7 +173,7 @@ def check_contents(folder: str) -> list[str]:
     """Every TOML key, flag and demo where the site promises them (static: the HTML)."""
     import generated
 
-    from nitsche_dolfinx.cli import main as cli
+    from nitsche_dolfinx.cli import command as cli
     from nitsche_dolfinx.config import schema
 
     problems = []

@@ -16,7 +16,20 @@ import pytest
 import nitsche_dolfinx
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-MODULES = {module.name for module in pkgutil.iter_modules(nitsche_dolfinx.__path__)}
+#: Every module and folder of the package, by its dotted name inside it (``steppers.implicit``).
+MODULES = {
+    module.name.removeprefix("nitsche_dolfinx.")
+    for module in pkgutil.walk_packages(nitsche_dolfinx.__path__, "nitsche_dolfinx.")
+}
+
+
+def module_prefix(parts: list[str]) -> int:
+    """How many of ``parts`` name a module of the package (the longest such prefix that
+    leaves a name after it), 0 if none."""
+    for length in range(len(parts) - 1, 0, -1):
+        if ".".join(parts[:length]) in MODULES:
+            return length
+    return 0
 
 
 def code_names(path: str) -> list[str]:
@@ -28,7 +41,7 @@ def code_names(path: str) -> list[str]:
     for paragraph in re.findall(r"\*\*Code:\*\*(.*?)(?:\n\n|\Z)", text, re.S):
         for token in re.findall(r"`([^`\n]+)`", paragraph):
             parts = token.split("(")[0].strip().split(".")
-            if len(parts) > 1 and parts[0] in MODULES and all(p.isidentifier() for p in parts):
+            if module_prefix(parts) and all(p.isidentifier() for p in parts):
                 names.append(".".join(parts))
     return names
 
@@ -38,7 +51,9 @@ def test_code_references_name_the_package(document):
     names = code_names(os.path.join(REPO, "docs", document))
     missing, elsewhere = [], []
     for name in names:
-        module, *attributes = name.split(".")
+        parts = name.split(".")
+        length = module_prefix(parts)
+        module, attributes = ".".join(parts[:length]), parts[length:]
         target = importlib.import_module(f"nitsche_dolfinx.{module}")
         for depth, attribute in enumerate(attributes):
             target = getattr(target, attribute, None)
@@ -131,14 +146,17 @@ def api_entry(target: str) -> str:
     """The kind of the entry of docs/api.md (automodule of every module: its public
     documented members, those of ``__all__`` included) for ``target``, or why it has none."""
     parts = target.split(".")
-    if parts[0] != "nitsche_dolfinx" or len(parts) < 2 or parts[1] not in MODULES:
+    if parts[0] != "nitsche_dolfinx" or len(parts) < 2:
         return "not a module of the package"
-    module = importlib.import_module(".".join(parts[:2]))
-    if len(parts) == 2:
+    if ".".join(parts[1:]) in MODULES:
         return "module"
-    if any(part.startswith("_") for part in parts[2:]):
+    length = module_prefix(parts[1:])
+    if not length:
+        return "not a module of the package"
+    module = importlib.import_module(".".join(parts[: length + 1]))
+    if any(part.startswith("_") for part in parts[length + 1 :]):
         return "private"
-    name, *members = parts[2:]
+    name, *members = parts[length + 1 :]
     if name not in getattr(module, "__all__", vars(module)):
         return f"no {name} in {module.__name__}" + (" (its __all__)" * hasattr(module, "__all__"))
     obj = getattr(module, name)
@@ -196,12 +214,23 @@ def test_roles_link_api_entries(document):
 
 
 def test_layout_lists_every_module():
-    """docs/layout.md has a row for each module of the package, and none that is gone."""
+    """docs/layout.md has a section per folder of the package with a row for each of its
+    modules (the folders' ``__init__.py`` aside), and none that is gone."""
     with open(os.path.join(REPO, "docs", "layout.md")) as f:
-        text = f.read()
-    listed = set(re.findall(r"`(\w+\.py)`", text.split("And around the package")[0]))
-    present = {name for name in os.listdir(os.path.dirname(nitsche_dolfinx.__file__))}
-    present = {name for name in present if name.endswith(".py")}
+        text = f.read().split("And around the package")[0]
+    listed = set()
+    for heading, body in re.findall(r"^## (.*)\n((?:(?!^## ).*\n?)*)", text, re.M):
+        folder = re.fullmatch(r"`(\w+)/`", heading.strip())
+        prefix = folder.group(1) + "/" if folder else ""
+        listed |= {prefix + name for name in re.findall(r"^\| `(\w+\.py)`", body, re.M)}
+    package = os.path.dirname(nitsche_dolfinx.__file__)
+    present = set()
+    for root, _, files in os.walk(package):
+        folder = os.path.relpath(root, package)
+        for name in files:
+            if name.endswith(".py") and not (folder != "." and name == "__init__.py"):
+                present.add(name if folder == "." else f"{folder}/{name}")
+    assert len(present) > 70  # the modules were found at all
     assert present - listed == set(), "modules missing from docs/layout.md"
     assert listed - present == set(), "docs/layout.md lists modules that are gone"
 

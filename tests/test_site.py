@@ -23,14 +23,15 @@ import re
 import pytest
 
 import nitsche_dolfinx
-from nitsche_dolfinx.cli import main as cli
+from nitsche_dolfinx.cli import command as cli
 from nitsche_dolfinx.config import schema
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: Every public module and folder of the package (its folders are packages of modules).
 MODULES = sorted(
-    f"nitsche_dolfinx.{module.name}"
-    for module in pkgutil.iter_modules(nitsche_dolfinx.__path__)
-    if not module.name.startswith("_")
+    module.name
+    for module in pkgutil.walk_packages(nitsche_dolfinx.__path__, "nitsche_dolfinx.")
+    if not module.name.rsplit(".", 1)[-1].startswith("_")
 )
 
 
@@ -79,9 +80,14 @@ def test_every_module_in_the_reference():
     assert len(MODULES) > 50  # the package's modules were found at all
     for module in MODULES:
         page = generated.api_page(module)
-        assert f".. automodule:: {module}\n   :members:" in page, page
+        if hasattr(importlib.import_module(module), "__path__"):  # a folder: its modules
+            assert f".. automodule:: {module}\n```" in page, page
+            inside = [m for m in MODULES if m.startswith(module + ".")]
+            assert inside and all(f"[`{m}`]({m}.md)" in page for m in inside), page
+        else:
+            assert f".. automodule:: {module}\n   :members:" in page, page
     listed = re.findall(r"\[`([\w.]+)`\]\(api/([\w.]+)\.md\)", generated.modules_markdown())
-    assert [name for name, _ in listed] == MODULES and all(a == b for a, b in listed)
+    assert sorted(name for name, _ in listed) == MODULES and all(a == b for a, b in listed)
     with open(os.path.join(REPO, "docs", "api.md")) as f:
         text = f.read()
     assert "<!-- generated: modules -->" in text and "api/*" in text
@@ -178,7 +184,7 @@ def test_cli_reference_is_the_parser():
     has a help text."""
     with open(os.path.join(REPO, "docs", "cli.md")) as f:
         text = f.read()
-    assert ":module: nitsche_dolfinx.cli.main" in text and ":func: argument_parser" in text
+    assert ":module: nitsche_dolfinx.cli.command" in text and ":func: argument_parser" in text
     silent = []
     parsers = [cli.argument_parser()]
     while parsers:

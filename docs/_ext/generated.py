@@ -32,17 +32,25 @@ API = os.path.join(REPO, "docs", "api")
 
 
 def api_modules() -> list[str]:
-    """The package's public modules (not those whose name starts with ``_``), sorted."""
+    """The package's public modules and folders (not those whose name starts with ``_``),
+    sorted: a folder comes just before its modules."""
     import pkgutil
 
     import nitsche_dolfinx
 
-    found = pkgutil.iter_modules(nitsche_dolfinx.__path__)
-    return sorted(f"nitsche_dolfinx.{m.name}" for m in found if not m.name.startswith("_"))
+    found = pkgutil.walk_packages(nitsche_dolfinx.__path__, "nitsche_dolfinx.")
+    return sorted(m.name for m in found if not m.name.rsplit(".", 1)[-1].startswith("_"))
 
 
 def api_page(module: str) -> str:
-    """The reference page of ``module``: autodoc of every public member."""
+    """The reference page of ``module``: autodoc of every public member; a folder's page
+    has its docstring and its modules' links (its members are documented where defined)."""
+    import importlib
+
+    if hasattr(importlib.import_module(module), "__path__"):
+        inside = [m for m in api_modules() if m.startswith(module + ".")]
+        links = "".join(f"- [`{m}`]({m}.md)\n" for m in inside)
+        return f"# `{module}`\n\n```{{eval-rst}}\n.. automodule:: {module}\n```\n\n{links}"
     return f"# `{module}`\n\n```{{eval-rst}}\n.. automodule:: {module}\n   :members:\n```\n"
 
 
@@ -62,18 +70,29 @@ def write_api_pages(app=None) -> None:
 
 
 def modules_markdown() -> str:
-    """docs/api.md's list: each module, linked to its page, with its docstring's summary."""
+    """docs/api.md's list: a table per layer (``nitsche_dolfinx.LAYERS``, lowest first),
+    each module linked to its page with its docstring's summary, the folder first."""
     import importlib
 
+    import nitsche_dolfinx
     from nitsche_dolfinx.post import markdown_cell, markdown_table
 
-    rows = []
-    for module in api_modules():
+    def summary(module: str) -> str:
         doc = (importlib.import_module(module).__doc__ or "").strip()
-        summary = " ".join(doc.split("\n\n")[0].split())
-        summary = re.sub(r":(\w+):`", r"{py:\1}`", summary)  # reST's roles in MyST's words
-        rows.append([f"[`{module}`](api/{module}.md)", markdown_cell(summary)])
-    return markdown_table(["module", "what it holds"], rows) + "\n"
+        text = " ".join(doc.split("\n\n")[0].split())
+        return re.sub(r":(\w+):`", r"{py:\1}`", text)  # reST's roles in MyST's words
+
+    modules = api_modules()
+    sections = []
+    for layer in nitsche_dolfinx.LAYERS:
+        name = f"nitsche_dolfinx.{layer}"
+        rows = [
+            [f"[`{module}`](api/{module}.md)", markdown_cell(summary(module))]
+            for module in modules
+            if module == name or module.startswith(name + ".")
+        ]
+        sections.append(f"### `{layer}`\n\n" + markdown_table(["module", "what it holds"], rows))
+    return "\n\n".join(sections) + "\n"
 
 
 def demo_names() -> list[str]:

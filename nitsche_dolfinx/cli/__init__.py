@@ -1,4 +1,4 @@
-"""The command line: the `nitsche-dolfinx` command (`main`), the demos' shared flags
+"""The command line: the `nitsche-dolfinx` command (`command`), the demos' shared flags
 (`arguments`), errors reported as one line with an exit status (`errors`).
 """
 
@@ -17,7 +17,7 @@ from .arguments import (
     step_taken,
 )
 from .errors import one_line_errors, under_its_flag
-from .main import main
+from .command import main
 
 __all__ = [
     "add_mass_argument",
