@@ -16,8 +16,8 @@ from .arguments import (
     scheme_mass,
     step_taken,
 )
-from .errors import one_line_errors, under_its_flag
 from .command import main
+from .errors import one_line_errors, under_its_flag
 
 __all__ = [
     "add_mass_argument",
