@@ -50,8 +50,9 @@ def solver_of(ranks: int) -> list[str]:
 #: MUMPS's factorisation on 2 ranks varies by round-off from one run to the next (its
 #: dynamic scheduling; measured: 6 of 398 repeated solves of one system differ, and two
 #: identical runs of the disk by 3.8e-14). Each step's solve then differs by about
-#: cond(J) eps = 2e-15 of the state (cond(J) = 9 on this disk); 400 steps: 8e-13.
-TWO_RANKS_RESTART = 1e-12
+#: cond(J) eps = 2e-15 of the state (cond(J) = 9 on this disk); 400 steps: 8e-13. Not the
+#: same operations, so 1e-9 of each column's largest value, which holds on any processor.
+TWO_RANKS_RESTART = 1e-9
 
 
 def interrupt_disk(out: str, ranks: int, after_step: int = 20) -> tuple[subprocess.Popen, str]:
@@ -172,8 +173,8 @@ def test_restart_after_a_hard_kill_continues_from_the_last_periodic_checkpoint(m
     assert len(records) == len(history["t"]) == 121
     # the same computation serially: bitwise; on ranks the two builds of the mesh may be
     # partitioned otherwise (dolfinx 0.9), round-off then. The history returned is the one
-    # written (repr: the same numbers).
-    tolerance = 0.0 if comm.size == 1 else 1e-12
+    # written (repr: the same numbers). Round-off of other partitions: 1e-9 of the columns.
+    tolerance = 0.0 if comm.size == 1 else 1e-9
     assert_same_history(read_history(os.path.join(reference, "history.csv")), history, tolerance)
     assert_same_history(columns(records, history.columns), history)  # run returns the whole history
     if comm.rank == 0:
@@ -201,7 +202,7 @@ def test_checkpoint_refuses_another_scheme_or_mesh(mpi_tmp_path):
     restored = disk()
     saved = restored.load_checkpoint(folder)
     assert (saved.step, saved.t) == (5, 0.5)
-    assert np.array_equal(restored.u.x.array, simulation.u.x.array)
+    assert np.array_equal(restored.u.x.array, simulation.u.x.array)  # copied: bitwise
 
 
 @pytest.mark.mpi
@@ -214,6 +215,7 @@ def test_restart_may_change_the_time_step_and_gamma0(mpi_tmp_path):
     problem = impact_problem(dim=2, mesh_size=8.0, gamma0=5e-4)
     changed = Simulation(problem, HybridScheme(), dt=0.04, t_end=0.7)
     history = changed.run(out=out, restart=True)
+    # time levels: scalar IEEE arithmetic (no BLAS, no libm), the same bits on any processor
     assert history["t"][5:] == pytest.approx([0.5, 0.54, 0.58, 0.62, 0.66, 0.7], abs=1e-14)
     assert history["t"][-1] == 0.7
     assert history["dt"][6:] == pytest.approx([0.04, 0.04, 0.04, 0.04, 0.04], abs=1e-14)
@@ -228,6 +230,7 @@ def test_restart_after_a_shorter_last_step_goes_back_to_the_grid(tmp_path):
     out = str(tmp_path / "out")
     disk(t_end=0.25).run(out=out, checkpoint_every=10)
     history = disk(t_end=0.5).run(out=out, restart=True)
+    # time levels: scalar IEEE arithmetic (no BLAS, no libm), the same bits on any processor
     assert history["t"] == pytest.approx([0.0, 0.1, 0.2, 0.25, 0.3, 0.4, 0.5], abs=1e-15)
     assert history["dt"][1:] == pytest.approx([0.1, 0.1, 0.05, 0.05, 0.1, 0.1], abs=1e-15)
 
@@ -251,8 +254,9 @@ def test_checkpoint_reloads_on_another_number_of_ranks(mpi_tmp_path):
     saved = parallel.load_checkpoint(folder)
     assert saved.step == 110
     state = parallel.state()
+    # the serial state summed on 2 ranks: other sums' round-off, 1e-9 of each value
     for name in ("energy", "energy_theta", "kinetic", "contact_force", "penetration_max"):
-        assert state[name] == pytest.approx(expected[name], rel=1e-12, abs=1e-12), name
+        assert state[name] == pytest.approx(expected[name], rel=1e-9, abs=1e-12), name
 
 
 def test_corrupt_checkpoint_metadata_is_named(tmp_path):
@@ -339,7 +343,7 @@ def test_command_checkpoints_and_restart_extends_the_run(tmp_path):
     history = read_history(os.path.join(out, "history.csv"))
     assert len(history["t"]) == 21 and np.all(np.diff(history["t"]) > 0)
     straight = read_history(str(tmp_path / "straight" / "history.csv"))
-    assert_same_history(straight, history)
+    assert_same_history(straight, history)  # a restart repeats the same operations: bitwise
 
 
 def test_bar_demo_restarts(tmp_path):
@@ -351,6 +355,7 @@ def test_bar_demo_restarts(tmp_path):
     assert second.returncode == 0, second.stderr
     straight = run(*bar, "--t-end", "3", "--out", str(tmp_path / "straight"))
     assert straight.returncode == 0, straight.stderr
+    # a restart repeats the same operations: bitwise
     assert_same_history(
         read_history(str(tmp_path / "straight" / "history.csv")),
         read_history(os.path.join(out, "history.csv")),

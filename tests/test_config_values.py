@@ -61,7 +61,9 @@ def test_load_table_in_time(tmp_path, force):
     history = simulation.run(columns=history_columns(config, simulation) + ["momentum"])
     t = history["t"]
     impulse = np.where(t <= 0.3, t**2 / 0.6, 0.15 + (t - 0.3))
-    np.testing.assert_allclose(history["momentum"], impulse, rtol=0, atol=1e-13)
+    # the run against the exact impulse, round-off apart: 1e-9 of its largest value
+    atol = 1e-9 * impulse.max()
+    np.testing.assert_allclose(history["momentum"], impulse, rtol=0, atol=atol)
 
 
 def test_dirichlet_table_in_time(tmp_path):
@@ -82,7 +84,8 @@ def test_dirichlet_table_in_time(tmp_path):
     config, simulation = configured(tmp_path, text)
     history = simulation.run(columns=history_columns(config, simulation))
     expected = np.interp(history["t"], [0.0, 0.25, 0.5], [0.0, 0.01, -0.02])
-    np.testing.assert_allclose(history["u_end"], expected, rtol=0, atol=1e-15)
+    # the probe of the run against the table: 1e-9 of the table's scale, 0.02
+    np.testing.assert_allclose(history["u_end"], expected, rtol=0, atol=1e-9 * 0.02)
 
 
 DISK = """
@@ -146,7 +149,8 @@ def test_curved_obstacle_gap(tmp_path, body, obstacle, gap):
     lowest point on a circle or sphere below."""
     text = body.format(t_end=0.5, lift=0.0, obstacle=obstacle.replace("\n", "\n    "))
     _, simulation = configured(tmp_path, text)
-    assert simulation.state()["penetration_max"] == pytest.approx(-gap, abs=1e-9)
+    # distances computed against exact ones: 1e-9 of the body's size, its radius 20
+    assert simulation.state()["penetration_max"] == pytest.approx(-gap, abs=1e-9 * 20.0)
 
 
 def test_disk_falls_on_a_circle_as_on_the_plane(tmp_path):
@@ -163,8 +167,9 @@ def test_disk_falls_on_a_circle_as_on_the_plane(tmp_path):
         history = simulation.run()
         first[name] = history["t"][np.argmax(history["contact_force"] > 0)]
         # a step's rise of E_Theta is <F, u^{n+1} - u^n> <= snes_rtol S |du|: at most 3.0e-8
-        # here (measured; tau = 0.5), plus twice its round-off (3.8e-11): 4.8e-11 E_Theta(0)
-        assert np.diff(history["energy_theta"]).max() <= 5e-11 * history["energy_theta"][0]
+        # here (measured; tau = 0.5), plus twice its round-off (3.8e-11): 4.8e-11 E_Theta(0);
+        # Newton's and round-off's share vary with the processor: 1e-9 E_Theta(0)
+        assert np.diff(history["energy_theta"]).max() <= 1e-9 * history["energy_theta"][0]
     assert first["circle"] == first["plane"] and 10.0 <= first["plane"] <= 10.5
 
 
@@ -202,12 +207,15 @@ def test_petsc_flag_reaches_the_solver(tmp_path, capfd):
 
 def test_value_forms():
     table = PiecewiseLinear([[0.0, 0.0, 1.0], [2.0, 4.0, -1.0]])
+    # dyadic values, exact in any order of the operations: compared exactly
     np.testing.assert_array_equal(table(-1.0), [0.0, 1.0])  # held before the first time
     np.testing.assert_array_equal(table(0.5), [1.0, 0.5])
     np.testing.assert_array_equal(table(3.0), [4.0, -1.0])  # and after the last
     np.testing.assert_array_equal(Ramp([2.0], 4.0)(1.0), [0.5])
-    assert Sine([2.0], 0.25, math.pi / 2)(1.0)[0] == pytest.approx(0.0, abs=1e-15)
+    # libm's sin(pi) against 0: 1e-9 of the amplitude 2
+    assert Sine([2.0], 0.25, math.pi / 2)(1.0)[0] == pytest.approx(0.0, abs=1e-9 * 2.0)
     field = PolynomialField(2, [1.0, 0.0], [[0.0, 2.0], [0.0, 0.0]], [np.eye(2), np.zeros((2, 2))])
     x = np.array([[1.0, 2.0], [3.0, -1.0], [0.0, 0.0]])
     expected = [1.0 + 2.0 * x[1] + 0.5 * (x[0] ** 2 + x[1] ** 2), np.zeros(2)]
-    np.testing.assert_allclose(field(x), expected, rtol=1e-15)
+    # numpy's products (BLAS) against the formula: 1e-9 of the values (zeros stay exact)
+    np.testing.assert_allclose(field(x), expected, rtol=1e-9)

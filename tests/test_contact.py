@@ -17,6 +17,8 @@ def square():
     return mesh.create_unit_square(MPI.COMM_WORLD, 2, 2)
 
 
+# pytest.approx's default here: 1e-6 of the value; the zeros compared are exact on any
+# processor (the positive part of a negative number, the zero component of a normal)
 def integral(msh, expression):
     """int over the unit square = the value of a constant expression."""
     return assemble_global(fem.form(expression * ufl.dx(domain=msh)), msh.comm)

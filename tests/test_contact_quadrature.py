@@ -72,7 +72,8 @@ def test_the_quadrature_force_is_the_assembled_one(dim, degree, theta):
     scale = assembled.norm(PETSc.NormType.INFINITY)
     assert scale > 0.0
     quadrature.axpy(-1.0, assembled)
-    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-13 * scale
+    # two computations of one vector: 1e-9 of its largest entry, on any processor
+    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-9 * scale
 
 
 @pytest.mark.mpi
@@ -83,7 +84,8 @@ def test_the_quadrature_force_of_the_bar_is_the_assembled_one():
     scale = assembled.norm(PETSc.NormType.INFINITY)
     assert scale > 0.0
     quadrature.axpy(-1.0, assembled)
-    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-13 * scale
+    # two computations of one vector: 1e-9 of its largest entry, on any processor
+    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-9 * scale
 
 
 @pytest.mark.mpi
@@ -108,7 +110,8 @@ def test_the_quadrature_force_on_quadrilaterals_and_hexahedra(cell, degree):
     scale = assembled.norm(PETSc.NormType.INFINITY)
     assert scale > 0.0
     quadrature.axpy(-1.0, assembled)
-    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-13 * scale
+    # two computations of one vector: 1e-9 of its largest entry, on any processor
+    assert quadrature.norm(PETSc.NormType.INFINITY) <= 1e-9 * scale
 
 
 COLUMNS = ["t", "energy", "energy_theta", "kinetic", "elastic", "contact_force",
@@ -136,7 +139,7 @@ def test_the_histories_by_quadrature_and_by_forms_agree(case, steps):
     """The disk through its impact (P2, the HRZ mass) and the bar through two impacts
     (P1, its massless contact node in equilibrium, Theta = 0), on all ranks: each column
     as with the force terms assembled at each step on one rank, to round-off (measured
-    below 1e-13 of the column's largest value, serially and on two ranks)."""
+    below 1e-13 of the column's largest value, serially and on two ranks; compared to 1e-9)."""
     make = {
         "disk P2 lumped": lambda comm: impact_problem(dim=2, mesh_size=8.0, mass="lumped",
                                                       comm=comm),
@@ -148,8 +151,8 @@ def test_the_histories_by_quadrature_and_by_forms_agree(case, steps):
     forms = history(make(MPI.COMM_SELF), "forms", steps)
     assert forms["contact_force"].max() > 0
     for name in COLUMNS:
-        scale = np.abs(forms[name]).max()
-        assert np.abs(quadrature[name] - forms[name]).max() <= 1e-10 * scale, name
+        scale = np.abs(forms[name]).max()  # other terms, other ranks: 1e-9 of the column
+        assert np.abs(quadrature[name] - forms[name]).max() <= 1e-9 * scale, name
 
 
 def test_an_unknown_contact_force_is_refused():

@@ -4,7 +4,9 @@ compilation, piecewise-linear tables, and the refusal of every text outside the 
 
 The values are compared at the nodes of P1 spaces: interpolating into P1 evaluates the
 expression at the nodes, so the compiled formula and the numpy one agree to round-off
-(rtol 1e-12); no quadrature is involved. Three expressions are compiled in all (2D, 3D, 1D).
+(measured: 1e-12; two implementations, whose elementary functions may differ with the
+processor, so compared to 1e-9 of each formula's scale); no quadrature is involved. Three
+expressions are compiled in all (2D, 3D, 1D).
 """
 
 import inspect
@@ -104,7 +106,8 @@ def test_formulas_match_numpy_and_follow_the_time_without_compiling(compilations
         expected += [X * time, 2.0 + 0 * X]
         for i, column in enumerate(expected):
             label = FORMULAS_2D[i][0] if i < len(FORMULAS_2D) else f"part {i}"
-            assert np.allclose(values[:, i], column, rtol=1e-12, atol=1e-12), (label, time)
+            atol = 1e-9 * np.abs(column).max()  # compiled C against numpy: 1e-9 of the scale
+            assert np.allclose(values[:, i], column, rtol=1e-9, atol=atol), (label, time)
     assert len(compilations) == compiled_forms, "changing t compiled again"
 
 

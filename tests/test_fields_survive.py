@@ -154,6 +154,8 @@ def test_sigkill_leaves_every_written_level_readable_and_restart_goes_on(
     killed = read_series(os.path.join(out, "solution.xdmf"))
     times = times_of(killed)
     assert set(killed) == set(block_reference)
+    # time levels: scalar IEEE arithmetic and its text, the same on any processor; the
+    # fields: the same run, restarted, on one rank: the same operations, bitwise
     if hold:
         assert times == pytest.approx(np.arange(41) * 0.01, abs=1e-12)
     else:

@@ -34,9 +34,10 @@ def test_point_value_of_a_linear_field():
         exact = linear_field(np.array([[point[0]], [point[1]]]))[:, 0]
         for component in (0, 1):
             value = PointValue(u, point, component)()
-            assert value == pytest.approx(exact[component], abs=1e-12)
+            # evaluated against the formula: 1e-9 of the fields' scale, their largest value 3
+            assert value == pytest.approx(exact[component], abs=3e-9)
             assert MPI.COMM_WORLD.allgather(value) == [value] * MPI.COMM_WORLD.size
-        assert PointValue(scalar, point)() == pytest.approx(1 + 2 * point[1], abs=1e-12)
+        assert PointValue(scalar, point)() == pytest.approx(1 + 2 * point[1], abs=3e-9)
     with pytest.raises(ValueError, match="give the component"):
         PointValue(u, [0.5, 0.5])
 
@@ -61,8 +62,8 @@ def test_contact_totals_of_each_obstacle():
     assert force.max() > 1.0  # in contact since t = 8.8
     for name in ("contact_force", "contact_area"):
         first, second = history[f"{name}_1"], history[f"{name}_2"]
-        scale = history[name].max()
-        assert np.abs(first - second).max() <= 1e-11 * scale
-        assert np.abs(first + second - history[name]).max() <= 1e-12 * scale
+        scale = history[name].max()  # mirror images, and sums: 1e-9 of the total
+        assert np.abs(first - second).max() <= 1e-9 * scale
+        assert np.abs(first + second - history[name]).max() <= 1e-9 * scale
     before = history["t"] <= 8.5  # free fall: v = -0.1 t everywhere
     assert history["top_velocity_y"][before] == pytest.approx(-0.1 * history["t"][before])

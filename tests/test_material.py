@@ -54,7 +54,8 @@ def test_uniaxial_stress_and_von_mises():
     u.interpolate(lambda x: np.vstack([e * x[0], -m.nu * e * x[1], -m.nu * e * x[2]]))
     s = sigma(u, m)
     assert _value(msh, s[0, 0]) == pytest.approx(m.E * e)
-    assert _value(msh, s[1, 1]) == pytest.approx(0.0, abs=1e-12)
+    # zero against its round-off: 1e-9 of the stress's scale E eps
+    assert _value(msh, s[1, 1]) == pytest.approx(0.0, abs=1e-9 * m.E * e)
     assert _value(msh, von_mises(u, m)) == pytest.approx(m.E * e)
 
 
@@ -122,6 +123,7 @@ def test_another_material_compiles_nothing(compilations, mpi_tmp_path, method, m
         compiled.append(compilations[before:])
         area = 0.5
         elastic = 0.5 * (material.lmbda + 2 * material.mu) * STRETCH**2 * area
-        assert history["elastic"][0] == pytest.approx(elastic, rel=1e-12)
-        assert history["kinetic"][0] == pytest.approx(0.5 * material.rho * area, rel=1e-12)
+        # assembled energies against their formulas: 1e-9 of each
+        assert history["elastic"][0] == pytest.approx(elastic, rel=1e-9)
+        assert history["kinetic"][0] == pytest.approx(0.5 * material.rho * area, rel=1e-9)
     assert not compiled[1], f"the second material compiled {compiled[1]}"

@@ -56,12 +56,14 @@ def test_zero_friction_is_the_frictionless_pair():
     exact = {"snes_rtol": 1e-14, "snes_atol": 1e-13}
     frictionless, sim0 = run_pair(t_end=0.5, petsc_options=exact, friction=None)
     zero, sim1 = run_pair(t_end=0.5, petsc_options=exact, friction=0.0)
-    # the same equations, other forms and LU instead of LDL^T: round-off apart
-    assert np.abs(sim1.u.x.array - sim0.u.x.array).max() <= 1e-12
-    assert np.abs(sim1.v.x.array - sim0.v.x.array).max() <= 1e-10
+    # the same equations, other forms and LU instead of LDL^T: round-off apart, which
+    # varies with the processor, so 1e-9 of the scales: u of the block's size 1 (it slides
+    # 0.4), v of v0 = 1, the energies (the pairings' too) of E_Theta(0) = 1
+    assert np.abs(sim1.u.x.array - sim0.u.x.array).max() <= 1e-9
+    assert np.abs(sim1.v.x.array - sim0.v.x.array).max() <= 1e-9
     for name in ("energy_theta", "kinetic", "u_block", "pairing_energy"):
-        assert np.allclose(zero[name], frictionless[name], rtol=0, atol=1e-10), name
-    assert np.all(zero["friction_dissipation"] == 0.0)
+        assert np.allclose(zero[name], frictionless[name], rtol=0, atol=1e-9), name
+    assert np.all(zero["friction_dissipation"] == 0.0)  # mu = 0: exactly no work
 
 
 @pytest.mark.parametrize("scheme", ["hybrid", "theta"])
@@ -81,7 +83,8 @@ def test_block_on_slab_stops_like_on_a_rigid_plane(scheme):
         assert dissipated == pytest.approx(lost, rel=0.01)
     else:  # backward Euler dissipates |v^{n+1} - v^n|^2 / 2 too: as on the plane
         assert dissipated == pytest.approx(plane["friction_dissipation"].sum(), rel=0.01)
-    # E_Theta less the pairings' changes plus the friction's work never rises
+    # E_Theta less the pairings' changes plus the friction's work never rises (up to
+    # round-off, processor-dependent: 1e-9 of E_Theta(0) = 1)
     controlled = (
         pair["energy_theta"] - pair["pairing_energy"] + np.cumsum(pair["friction_dissipation"])
     )
@@ -114,8 +117,10 @@ def test_slab_nodes_beyond_the_block_have_no_partner(degree):
     if degree == 2:
         under &= ~np.isclose(x, -0.875)
     assert (under.sum(), (slave & ~under).sum()) == ((8, 17) if degree == 1 else (15, 34))
-    assert np.abs(opening[under] + 2e-6).max() < 1e-12
-    assert np.allclose(opening[slave & ~under], 0.25, rtol=1e-10, atol=0)  # (gmsh: 7e-13)
+    # gaps from coordinates of size 1, against exact values: 1e-9 of that size (measured
+    # 7e-13 of 0.25, the mesh from gmsh), which still tells 2e-6
+    assert np.abs(opening[under] + 2e-6).max() < 1e-9
+    assert np.allclose(opening[slave & ~under], 0.25, rtol=1e-9 / 0.25, atol=0)
 
 
 def test_unbiased_pair_stops_the_block_like_the_biased_one():
@@ -132,7 +137,7 @@ def test_unbiased_pair_stops_the_block_like_the_biased_one():
     controlled = (
         pair["energy_theta"] - pair["pairing_energy"] + np.cumsum(pair["friction_dissipation"])
     )
-    assert np.diff(controlled).max() <= 1e-9
+    assert np.diff(controlled).max() <= 1e-9  # E_Theta(0) = 1: as above
     # the contact force stays of the order of the weight's pressure times the stiffness
     # 1 / gamma_h at the sag (not 1e4 and more, as the wrong gaps made it)
     assert pair["contact_force"].max() < 1e3

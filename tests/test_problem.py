@@ -63,8 +63,9 @@ def test_consistent_initial_acceleration(dim):
     problem.set_initial_conditions(displacement=up(dim, 5.0))
     sim = Simulation(problem, HybridScheme(), dt=0.01, t_end=0.01)
     a = sim.a.x.array.reshape(-1, dim)
-    assert np.allclose(a[:, dim - 1], -0.1, atol=1e-12)
-    assert np.allclose(a[:, : dim - 1], 0.0, atol=1e-12)
+    # a solve against the exact value: 1e-9 of the acceleration's scale g = 0.1
+    assert np.allclose(a[:, dim - 1], -0.1, atol=1e-9 * 0.1)
+    assert np.allclose(a[:, : dim - 1], 0.0, atol=1e-9 * 0.1)
 
 
 @pytest.mark.mpi
@@ -97,10 +98,11 @@ def test_parallel_matches_serial_2d(scheme):
     # two computations (another partition) that take the same Newton iterations, so that
     # they differ by round-off: about cond(J) eps = 1.6e-14 of the state a step (cond(J) =
     # 74), 3.3e-13 in 20 steps (measured: 5e-14); Newton's tolerance alone would allow
-    # 2 snes_rtol S ||J^-1|| = 1.8e-7 of a step's accelerations here
+    # 2 snes_rtol S ||J^-1|| = 1.8e-7 of a step's accelerations here. Compared to 1e-9 of
+    # each value, and of the scales near 0 (the energies 1 to 2, the block's size 1)
     for parallel, serial in zip(*runs):
         for column in STATE_COLUMNS:
-            assert parallel[column] == pytest.approx(serial[column], rel=1e-10, abs=1e-10), column
+            assert parallel[column] == pytest.approx(serial[column], rel=1e-9, abs=1e-9), column
 
 
 @pytest.mark.parametrize("scheme", [HybridScheme(), CrankNicolson()], ids=["hybrid", "cn"])
@@ -121,7 +123,8 @@ def test_time_dependent_traction_gives_exact_momentum(scheme):
     values = []
     sim.run(callback=lambda s: values.append((s.t, assemble_global(momentum, msh.comm))))
     t, p = np.array(values).T
-    assert np.allclose(p, -c * t**2 / 2, rtol=1e-10, atol=1e-13)
+    # the run against the exact momentum: 1e-9 of its scale, its largest value
+    assert np.allclose(p, -c * t**2 / 2, rtol=1e-9, atol=1e-9 * np.abs(p).max())
 
 
 def test_time_dependent_dirichlet_is_applied():
@@ -135,4 +138,5 @@ def test_time_dependent_dirichlet_is_applied():
     dofs = fem.locate_dofs_topological(problem.V, 1, problem.facets(BOTTOM))
     checks = []
     sim.run(callback=lambda s: checks.append(s.u.x.array.reshape(-1, 2)[dofs, 1] - 0.01 * s.t**2))
-    assert len(checks) == 5 and all(np.abs(c).max() < 1e-12 for c in checks if len(c))
+    # the run's values against the formula: 1e-9 of their scale, 0.01 t_end^2 = 2.5e-3
+    assert len(checks) == 5 and all(np.abs(c).max() < 1e-9 * 2.5e-3 for c in checks if len(c))

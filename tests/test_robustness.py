@@ -177,6 +177,7 @@ def test_newton_failure_keeps_outputs_and_saves_last_converged_state(tmp_path):
     assert restarted.returncode == 0, restarted.stderr
     reference = run(*DISK, *flags, "--out", str(tmp_path / "reference"))
     assert reference.returncode == 0, reference.stderr
+    # a restart repeats the same operations: bitwise
     assert_same_history(
         read_history(str(tmp_path / "reference" / "history.csv")),
         read_history(str(out / "history.csv")),

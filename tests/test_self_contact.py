@@ -49,13 +49,14 @@ def test_a_surface_paired_with_itself_faces_across_the_slot():
     nodes, positions = pairing._nodes, pairing._positions
     normal = pairing.normal.x.array.reshape(-1, 2)[nodes]
     gap = np.einsum("nd,nd->n", pairing.gap_vector.x.array.reshape(-1, 2)[nodes], normal)
-    sides = np.abs(np.abs(positions[:, 1] - 1.1) - SLOT / 2) < 1e-12
+    sides = np.abs(np.abs(positions[:, 1] - 1.1) - SLOT / 2) < 1e-9  # nodes 0.05 apart
     end = ~sides  # x = 1, strictly between the sides
     upper = positions[:, 1] > 1.1
-    # reference positions and a unit normal: round-off of the coordinates (about 1)
-    assert np.abs(gap[sides] - SLOT).max() < 1e-12
-    assert np.abs(normal[sides & upper] - [0.0, -1.0]).max() < 1e-12
-    assert np.abs(normal[sides & ~upper] - [0.0, 1.0]).max() < 1e-12
+    # reference positions and a unit normal: round-off of the coordinates (about 1),
+    # against exact values: 1e-9 of that scale
+    assert np.abs(gap[sides] - SLOT).max() < 1e-9
+    assert np.abs(normal[sides & upper] - [0.0, -1.0]).max() < 1e-9
+    assert np.abs(normal[sides & ~upper] - [0.0, 1.0]).max() < 1e-9
     u = fem.Function(problem.V)
     u.x.array[:] = np.random.default_rng(1).random(len(u.x.array))
     relative = pairing._relative(u)
@@ -73,8 +74,8 @@ def test_slot_closes_and_e_theta_is_controlled(landed):
     energy = np.asarray(history["energy_theta"])
     pairing = np.asarray(history["pairing_energy"])
     # a step's rise is at most snes_rtol |F| |du| plus round-off of E_Theta: measured
-    # 3e-13 E_Theta(0)
-    assert np.diff(energy - pairing).max() < 1e-11 * energy[0]
+    # 3e-13 E_Theta(0); both vary with the processor: 1e-9 E_Theta(0)
+    assert np.diff(energy - pairing).max() < 1e-9 * energy[0]
     assert np.abs(pairing).max() < 1e-3 * energy[0]
 
 
@@ -89,7 +90,7 @@ def test_prism_closes_its_slot_and_e_theta_is_controlled():
     assert np.asarray(history["contact_force_1"]).max() > 0
     energy = np.asarray(history["energy_theta"])
     pairing = np.asarray(history["pairing_energy"])
-    assert np.diff(energy - pairing).max() < 1e-11 * energy[0]
+    assert np.diff(energy - pairing).max() < 1e-9 * energy[0]  # as above
     assert np.abs(pairing).max() < 1e-3 * energy[0]
 
 

