@@ -32,7 +32,7 @@ from ..meshing.two_bodies import (
     two_bars_mesh,
 )
 from ..model.problem import ContactProblem
-from ..output.diagnostics import BoundaryAverage
+from ..output.probes import BoundaryAverage
 from ..physics.material import Material
 from ..physics.obstacles import PlaneObstacle
 

@@ -21,7 +21,7 @@ from petsc4py import PETSc
 
 from ..common import compat
 from ..contact.nitsche import heaviside, positive_part
-from .diagnostics import BoundaryField
+from .probes import BoundaryField
 
 __all__ = [
     "CellMean",
