@@ -192,9 +192,9 @@ def mirrored_bodies_mesh(
     return distribute(build, comm, dim, [UPPER_CONTACT, LOWER_CONTACT])
 
 
-#: Tags of the ball-on-slab mesh: cells of the ball and of the slab; the ball's lower half,
-#: the slab's top and its bottom.
+#: Cell tags of the ball-on-slab mesh: the ball and the slab.
 BALL, SLAB = 1, 2
+#: Facet tags of the ball-on-slab mesh: the ball's lower half, the slab's top and its bottom.
 BALL_BOTTOM, SLAB_TOP, SLAB_BOTTOM = 1, 2, 3
 
 
