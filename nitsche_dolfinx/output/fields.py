@@ -142,7 +142,7 @@ class OnBoundary:
     file is the field on the boundary, as ParaView draws it on the surface.
 
     Args:
-        function: The Function (a :class:`~nitsche_dolfinx.output.diagnostics.BoundaryField`'s).
+        function: The Function (a :class:`~nitsche_dolfinx.output.probes.BoundaryField`'s).
         facets: The facets of the part, local indices.
     """
 
