@@ -78,7 +78,8 @@ def two_bars_problem(
 
     Returns:
         ``(problem, cell_tags)``: the cells of the right bar are tagged
-        :data:`UPPER_BODY`, those of the left one :data:`LOWER_BODY`.
+        :data:`~nitsche_dolfinx.meshing.two_bodies.UPPER_BODY`, those of the left one
+        :data:`~nitsche_dolfinx.meshing.two_bodies.LOWER_BODY`.
     """
     mesh, cell_tags, tags = two_bars_mesh(nx, gap, comm)
     problem = ContactProblem(
@@ -121,7 +122,8 @@ def two_bodies_problem(
     pair one between hyperelastic bodies, docs/method.md section 15).
 
     Returns:
-        ``(problem, cell_tags)`` (:data:`UPPER_BODY`, :data:`LOWER_BODY`).
+        ``(problem, cell_tags)`` (:data:`~nitsche_dolfinx.meshing.two_bodies.UPPER_BODY`,
+        :data:`~nitsche_dolfinx.meshing.two_bodies.LOWER_BODY`).
     """
     mesh, cell_tags, tags = mirrored_bodies_mesh(dim, mesh_size, geometry_order, gap, comm, offset)
     problem = ContactProblem(
