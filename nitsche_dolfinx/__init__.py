@@ -22,8 +22,8 @@ from .common.parameters import ParameterError
 from .contact.nitsche import NitscheContact, hybrid_contact_force, positive_part
 from .meshing.meshes import BAR_CLAMPED, BAR_CONTACT, bar_mesh, load_mesh, save_mesh
 from .model.problem import ContactProblem
-from .output.diagnostics import BoundaryAverage
 from .output.history import HISTORY_COLUMNS, History
+from .output.probes import BoundaryAverage
 from .output.writers import read_history
 from .physics.material import Material
 from .physics.motion import MovingObstacle

@@ -1,11 +1,13 @@
 """Assembly: compiled forms and their quadratures (`forms`), the systems F(x) = 0 a Newton
-solver works on (`systems`), the contact Jacobian near the contact (`facet_jacobian`,
-`jacobian_sum`) and between bodies (`pair_coupling`).
+solver works on (`systems`, and `affine_system` with its constant Jacobian), the contact
+Jacobian near the contact (`facet_jacobian`, `jacobian_sum`) and between bodies
+(`pair_coupling`).
 """
 
+from .affine_system import AffineSystem, StepForms
 from .forms import CellResidualAtZero, Forms, split_cell_integrals
 from .pair_coupling import PairCoupling, add_partner_terms
-from .systems import AffineSystem, FormSystem, StepForms
+from .systems import FormSystem
 
 __all__ = [
     "AffineSystem",

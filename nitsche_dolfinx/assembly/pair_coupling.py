@@ -1,6 +1,6 @@
 """The linear algebra of contact between two bodies (docs/method.md section 11): the
 partner-tested residual T^T G and the Jacobian's coupling terms, for
-:class:`~nitsche_dolfinx.assembly.systems.AffineSystem` (its ``coupling``).
+:class:`~nitsche_dolfinx.assembly.affine_system.AffineSystem` (its ``coupling``).
 
 With w~ = T w the partner of the unknown, the Jacobian of a pair is
 

@@ -1,8 +1,23 @@
 """The test cases ready to run: one body (`one_body`: the bar, the ball and the disk, the
-sliding block), two bodies (`two_bodies`), and the exact solutions they are measured against
-(`exact`).
+sliding block), two bodies (`two_bodies`, on the meshes of `meshing.two_bodies`), and the
+exact solutions they are measured against (`exact`).
 """
 
+from ..meshing.two_bodies import (
+    BALL_BOTTOM,
+    BLOCK,
+    LOWER_BODY,
+    LOWER_CONTACT,
+    SLAB,
+    SLAB_BOTTOM,
+    SLAB_TOP,
+    UPPER_BODY,
+    UPPER_CONTACT,
+    ball_on_slab_mesh,
+    block_on_slab_mesh,
+    mirrored_bodies_mesh,
+    two_bars_mesh,
+)
 from .exact import (
     BAR_ENERGY,
     BarSpaceTimeErrors,
@@ -26,23 +41,10 @@ from .one_body import (
     impact_problem,
 )
 from .two_bodies import (
-    BALL_BOTTOM,
-    BLOCK,
-    LOWER_BODY,
-    LOWER_CONTACT,
-    SLAB,
-    SLAB_BOTTOM,
-    SLAB_TOP,
-    UPPER_BODY,
-    UPPER_CONTACT,
     add_body_velocity_probes,
-    ball_on_slab_mesh,
     ball_on_slab_problem,
-    block_on_slab_mesh,
     block_on_slab_problem,
     body_velocities,
-    mirrored_bodies_mesh,
-    two_bars_mesh,
     two_bars_problem,
     two_bodies_problem,
 )

@@ -17,7 +17,7 @@ from mpi4py import MPI
 from ..meshing.meshes import BAR_CLAMPED, BAR_CONTACT, BLOCK_CONTACT, bar_mesh, block_mesh
 from ..meshing.shapes import BALL_CONTACT, DISK_CONTACT, ball_mesh, disk_mesh
 from ..model.problem import ContactProblem
-from ..output.diagnostics import BoundaryAverage
+from ..output.probes import BoundaryAverage
 from ..physics.material import Material
 from ..physics.obstacles import PlaneObstacle
 from ..physics.valueforms import PolynomialField

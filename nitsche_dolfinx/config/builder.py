@@ -26,7 +26,7 @@ from ..common.parameters import Discretisation, NitscheParameters, ParameterErro
 from ..meshing.facet_selectors import InBox, NormalWithin, OnPlane, tag_cells, tag_facets
 from ..meshing.meshes import load_mesh
 from ..model.problem import ContactProblem
-from ..output.diagnostics import BoundaryAverage, PointValue
+from ..output.probes import BoundaryAverage, PointValue
 from ..physics.damping import check_damping
 from ..physics.expressions import has_text
 from ..physics.material import Material

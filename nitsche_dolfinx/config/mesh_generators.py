@@ -15,17 +15,17 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from ..cases.two_bodies import (
-    ball_on_slab_mesh,
-    block_on_slab_mesh,
-    mirrored_bodies_mesh,
-    two_bars_mesh,
-)
 from ..common.keys import Key, is_number
 from ..common.parameters import ParameterError
 from ..meshing.c_shape import c_shape_mesh
 from ..meshing.meshes import MAX_CELLS, bar_mesh, block_mesh
 from ..meshing.shapes import ball_mesh, disk_mesh
+from ..meshing.two_bodies import (
+    ball_on_slab_mesh,
+    block_on_slab_mesh,
+    mirrored_bodies_mesh,
+    two_bars_mesh,
+)
 
 __all__ = ["GENERATOR_KEYS", "MESH_GENERATORS", "MeshGenerator", "check_generator", "generate_mesh"]
 

@@ -1,6 +1,7 @@
 """Meshes: loading and saving them (`meshes`), tagging facets and cells (`facet_selectors`),
 the one gmsh pipeline (`gmsh_pipeline`) and the contact-aware partition (`partition`), the
-gmsh shapes of the test cases (`shapes`, `c_shape`), bodies as parts of a mesh (`bodies`).
+gmsh shapes of the test cases (`shapes`, `c_shape`) and the meshes of two bodies
+(`two_bodies`), bodies as parts of a mesh (`bodies`).
 """
 
 from .bodies import Body, make_body
@@ -45,13 +46,34 @@ from .shapes import (
     msh_command,
     set_mesh_size,
 )
+from .two_bodies import (
+    BALL,
+    BALL_BOTTOM,
+    BLOCK,
+    BLOCK_BOTTOM,
+    LOWER_BODY,
+    LOWER_CONTACT,
+    SLAB,
+    SLAB_BOTTOM,
+    SLAB_TOP,
+    UPPER_BODY,
+    UPPER_CONTACT,
+    ball_on_slab_mesh,
+    block_on_slab_mesh,
+    mirrored_bodies_mesh,
+    two_bars_mesh,
+)
 
 __all__ = [
+    "BALL",
+    "BALL_BOTTOM",
     "BALL_CONTACT",
     "BALL_FREE",
     "BALL_VOLUME",
     "BAR_CLAMPED",
     "BAR_CONTACT",
+    "BLOCK",
+    "BLOCK_BOTTOM",
     "BLOCK_CONTACT",
     "Body",
     "C_BOTTOM",
@@ -60,14 +82,23 @@ __all__ = [
     "DISK_FREE",
     "DISK_SURFACE",
     "InBox",
+    "LOWER_BODY",
+    "LOWER_CONTACT",
     "MAX_CELLS",
     "NormalWithin",
     "OnPlane",
+    "SLAB",
+    "SLAB_BOTTOM",
+    "SLAB_TOP",
+    "UPPER_BODY",
+    "UPPER_CONTACT",
     "add_ball_halves",
     "add_disk_halves",
     "ball_mesh",
+    "ball_on_slab_mesh",
     "bar_mesh",
     "block_mesh",
+    "block_on_slab_mesh",
     "build_ball_model",
     "build_disk_model",
     "c_shape_mesh",
@@ -83,9 +114,11 @@ __all__ = [
     "gmsh_session",
     "load_mesh",
     "make_body",
+    "mirrored_bodies_mesh",
     "msh_command",
     "save_mesh",
     "set_mesh_size",
     "tag_cells",
     "tag_facets",
+    "two_bars_mesh",
 ]

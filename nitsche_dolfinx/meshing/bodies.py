@@ -3,7 +3,7 @@ other (docs/method.md section 11).
 
 A body is known by its nodes: the nodes of the displacement space on its cells. Its
 columns in the history (momentum, centre of mass, angular momentum) are sums over these
-nodes of the mass matrix's rows (:class:`~nitsche_dolfinx.output.diagnostics.MassMoments`), so
+nodes of the mass matrix's rows (:class:`~nitsche_dolfinx.output.mass_moments.MassMoments`), so
 bodies must not share a node: the rows of a shared node would count in both.
 """
 

@@ -2,7 +2,7 @@
 
 1. gmsh is started one way (:func:`gmsh_session`: quietly, on rank 0 only);
 2. rank 0 builds the model (a generator of :mod:`~nitsche_dolfinx.meshing.shapes` or
-   :mod:`~nitsche_dolfinx.cases.two_bodies`) or reads it (:func:`read_msh`), and checks that
+   :mod:`~nitsche_dolfinx.meshing.two_bodies`) or reads it (:func:`read_msh`), and checks that
    dolfinx can make a mesh of it: the cells of one type in physical groups, the
    dimensions consistent;
 3. every rank learns what rank 0 found, or its error (:func:`from_root`), before any

@@ -4,7 +4,7 @@
 :func:`nitsche_dolfinx.meshing.gmsh_pipeline.read_msh`) or an XDMF file, refusing a bad file in
 one line on every rank; :func:`bar_mesh` and :func:`block_mesh` are dolfinx's interval and
 rectangle with their tags (the gmsh bodies are in :mod:`~nitsche_dolfinx.meshing.shapes` and
-:mod:`~nitsche_dolfinx.cases.two_bodies`). The facet selectors of
+:mod:`~nitsche_dolfinx.meshing.two_bodies`). The facet selectors of
 :mod:`~nitsche_dolfinx.meshing.facet_selectors`
 are also found here.
 """

@@ -1,6 +1,7 @@
-"""What a run measures and writes: energies, forces and probes (`diagnostics`), the history's
-rows and columns (`history`), the fields of solution.xdmf (`fields`, `series`, `writers`),
-checkpoints (`checkpoint`), the progress on the terminal (`progress`).
+"""What a run measures and writes: energies and contact forces (`diagnostics`), the momentum
+and the centre of mass (`mass_moments`), probes (`probes`), the history's rows and columns
+(`history`), the fields of solution.xdmf (`fields`, `series`, `writers`), checkpoints
+(`checkpoint`), the progress on the terminal (`progress`).
 """
 
 from .checkpoint import (
@@ -12,16 +13,7 @@ from .checkpoint import (
     match_points,
     save_state,
 )
-from .diagnostics import (
-    BoundaryAverage,
-    BoundaryField,
-    Diagnostics,
-    MassMoments,
-    Penetration,
-    PointValue,
-    assemble_global,
-    assembled_matrix,
-)
+from .diagnostics import Diagnostics, Penetration
 from .fields import ContactFields, LevelRefresh, OnBoundary, body_fields
 from .history import (
     DAMPING_COLUMNS,
@@ -38,6 +30,8 @@ from .history import (
     contact_columns,
     momentum_columns,
 )
+from .mass_moments import MassMoments, assembled_matrix
+from .probes import BoundaryAverage, BoundaryField, PointValue, assemble_global
 from .progress import Progress
 from .series import continue_solution, read_solution
 from .writers import HistoryWriter, SolutionWriter, ensure_directory, read_history

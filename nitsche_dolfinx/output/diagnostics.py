@@ -1,5 +1,6 @@
-"""Energies, momentum and contact diagnostics of docs/method.md section 4, reduced over MPI
-every step.
+"""Energies and contact diagnostics of docs/method.md section 4, reduced over MPI every step:
+the energies, the contact force and area, the largest penetration and the smallest det F
+(the momentum and the centre of mass: :mod:`~nitsche_dolfinx.output.mass_moments`).
 
     E^h       = 1/2 ||sqrt(rho) u'||^2 + 1/2 a(u, u) - L(u)
     E_Theta^h = E^h - Theta/2 ( ||gamma_h^1/2 sigma_n(u)||^2 - ||gamma_h^-1/2 [P_gamma(u)]_+||^2 )
@@ -14,121 +15,17 @@ import numpy as np
 import ufl
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
-from petsc4py import PETSc
 from ufl.algorithms.map_integrands import map_integrands
 
 from ..common import compat
 from ..common.collective import max_over_ranks, sum_over_ranks
-from .history import (
-    angular_momentum_columns,
-    body_columns,
-    centre_of_mass_columns,
-    momentum_columns,
-)
+from .mass_moments import MassMoments, assembled_matrix
 
-__all__ = [
-    "ON_REQUEST",
-    "BoundaryAverage",
-    "BoundaryField",
-    "Diagnostics",
-    "MassMoments",
-    "Penetration",
-    "PointValue",
-    "assemble_global",
-    "assembled_matrix",
-]
+__all__ = ["ON_REQUEST", "Diagnostics", "Penetration"]
 
 
 #: The diagnostics computed only when a history column names them (or all are asked for).
 ON_REQUEST = ("penetration_max", "det_F_min")
-
-
-def assemble_global(form, comm) -> float:
-    """The value of a compiled scalar form over the whole mesh."""
-    return float(sum_over_ranks(comm, [fem.assemble_scalar(form)])[0])
-
-
-class BoundaryAverage:
-    """Mean value of a scalar expression over a tagged boundary part (or over any
-    measure: with ``dx``, the mean over the body).
-
-    On a 1D mesh, where a boundary part is one point, this is the point value:
-    the bar demo reads u(t, 0) and lambda_h(t, 0) this way.
-    """
-
-    def __init__(self, mesh, expression, ds):
-        self.comm = mesh.comm
-        self._integral = fem.form(expression * ds)
-        self._measure = assemble_global(fem.form(fem.Constant(mesh, 1.0) * ds), self.comm)
-        if self._measure == 0.0:
-            raise ValueError("the boundary part has zero measure: is its tag in the mesh?")
-
-    def __call__(self) -> float:
-        return assemble_global(self._integral, self.comm) / self._measure
-
-
-class BoundaryField:
-    """A field on the contact boundary, for output: the lumped L2 projection of
-    ``int_Gamma f . mu`` onto the P1 dofs of Gamma, zero elsewhere.
-
-    The source is a linear form ``L(mu)`` in the P1 test function ``mu``, given as a
-    function ``source(mu)`` (for friction: the traction or slip velocity of the last
-    step, which the time scheme writes); the value at a boundary node is
-    ``L(phi_i) / int_Gamma phi_i``. P1 keeps the lumped mass positive on every cell
-    type (P2 vertex functions integrate to zero on triangles).
-
-    Args:
-        mesh: The mesh.
-        shape: Value shape, ``()`` or ``(gdim,)``.
-        ds: Measure of the boundary part (a sum of tagged measures is fine).
-        source: ``source(mu) -> form`` linear in the test function mu.
-        name: Name of the field in the output.
-    """
-
-    def __init__(self, mesh, shape, ds, source, name: str):
-        V = compat.function_space(mesh, "Lagrange", 1, shape)
-        self.function = fem.Function(V, name=name)
-        mu = ufl.TestFunction(V)
-        ones = ufl.as_vector([1.0] * shape[0]) if shape else fem.Constant(mesh, 1.0)
-        lumped = compat.create_vector(V)
-        fem_petsc.assemble_vector(lumped, fem.form(ufl.inner(ones, mu) * ds))
-        lumped.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self._lumped = lumped.array.copy()  # owned entries
-        lumped.destroy()
-        self._on_boundary = self._lumped > 0
-        self._form = fem.form(source(mu))
-        self._rhs = compat.create_vector(V)
-
-    def update(self) -> None:
-        """Re-evaluate the source into :attr:`function`."""
-        rhs = self._rhs
-        with rhs.localForm() as local:
-            local.set(0.0)
-        fem_petsc.assemble_vector(rhs, self._form)
-        rhs.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        values = np.zeros_like(self._lumped)
-        values[self._on_boundary] = rhs.array[self._on_boundary] / self._lumped[self._on_boundary]
-        self.function.x.array[: values.size] = values
-        self.function.x.scatter_forward()
-
-
-def _diagonal_matrix(diagonal):
-    """A PETSc AIJ matrix with the given diagonal."""
-    matrix = PETSc.Mat().createAIJ(
-        (diagonal.getSizes(), diagonal.getSizes()), nnz=1, comm=diagonal.getComm()
-    )
-    matrix.setDiagonal(diagonal)
-    return matrix
-
-
-def assembled_matrix(form) -> PETSc.Mat:
-    """The matrix of a bilinear form, in blocks of the space's block size (BAIJ: for 3D
-    vectors, products about three times faster than AIJ)."""
-    compiled = fem.form(form)
-    matrix = compat.create_matrix(compiled, "baij")
-    fem_petsc.assemble_matrix(matrix, compiled)
-    matrix.assemble()
-    return matrix
 
 
 def _total(forms: list):
@@ -246,125 +143,6 @@ class SmallestDeterminant:
         array = self._field.x.array
         local = float(array.min()) if array.size else np.inf
         return -float(max_over_ranks(self.comm, [-local])[0])
-
-
-class MassMoments:
-    """The mass of the body and its moments, from its mass matrix M (consistent, or the
-    lumped or redistributed diagonal): the kinetic energy 1/2 v . M v, the total linear
-    momentum (the rows of M v summed by component), the centre of mass (those of
-    M (x + u), over the mass; x the positions of the nodes, which the displacement space
-    interpolates exactly when it holds the geometry) and the angular momentum about the
-    origin, sum_i (x_i + u_i) x (M v)_i over the nodes, and sum_i x_i x (M v)_i, the one
-    linear elasticity keeps (docs/method.md section 4); the first three also over the
-    nodes of each body of the model (``ContactProblem.add_body``), whose rows are its own
-    mass matrix's.
-
-    Args:
-        model: The :class:`~nitsche_dolfinx.model.problem.ContactProblem`.
-    """
-
-    def __init__(self, model):
-        self.comm = model.mesh.comm
-        self.model = model
-        trial, test = ufl.TrialFunction(model.V), ufl.TestFunction(model.V)
-        diagonal = model.mass_diagonal()
-        if diagonal is None:
-            self.matrix = assembled_matrix(model.inertia(trial, test))
-        else:  # lumped or redistributed mass: a diagonal matrix
-            self.matrix = _diagonal_matrix(diagonal)
-            self.matrix.assemble()
-        self._work = self.matrix.createVecLeft()
-        self._displaced = self.matrix.createVecLeft()  # M u
-        self.bs = model.V.dofmap.index_map_bs
-        self.momentum_names = momentum_columns(self.bs)
-        self.centre_names = centre_of_mass_columns(self.bs)
-        self.angular_names = angular_momentum_columns(self.bs)
-        self.reference_names = angular_momentum_columns(self.bs, reference=True)
-        positions = fem.Function(model.V)
-        positions.interpolate(lambda x: x[: self.bs])
-        #: The nodes' positions (owned rows) and the rows of M x (of the undeformed body).
-        self._positions = self._rows(positions.x.array).copy()
-        self._first_moment_rows = self._rows(self._product(positions, self._work)).copy()
-        self._first_moment = sum_over_ranks(self.comm, self._first_moment_rows.sum(axis=0))
-        positions.x.array[:] = 1.0
-        self._mass_rows = self._rows(self._product(positions, self._work))[:, 0].copy()
-        self.mass = float(sum_over_ranks(self.comm, [self._mass_rows.sum()])[0])
-        self._body_masses: list[float] = []  # of model.bodies, once asked for
-
-    def _rows(self, array) -> np.ndarray:
-        """The owned part of a dof array, one row per node."""
-        owned = self._work.getLocalSize()
-        return np.asarray(array)[:owned].reshape(-1, self.bs)
-
-    def _product(self, function, out) -> np.ndarray:
-        """M f into ``out``; its owned entries."""
-        self.matrix.mult(compat.petsc_vector(function), out)
-        return out.array
-
-    def sums(self, function) -> np.ndarray:
-        """M f summed by component over all ranks (M f stays in the work vector)."""
-        return sum_over_ranks(self.comm, self._rows(self._product(function, self._work)).sum(0))
-
-    def inertia_norm(self, v, dt: float) -> float:
-        """||M v|| / dt over all ranks: the force that would stop the velocity ``v`` in a
-        step ``dt``."""
-        self._product(v, self._work)
-        return self._work.norm() / dt
-
-    def momentum(self, v) -> np.ndarray:
-        """The total linear momentum, by component: the rows of M v summed."""
-        return self.sums(v)
-
-    def kinetic(self, v) -> float:
-        """1/2 v . M v."""
-        self.matrix.mult(compat.petsc_vector(v), self._work)
-        return 0.5 * self._work.dot(compat.petsc_vector(v))
-
-    def centre_of_mass(self, u) -> np.ndarray:
-        """The centre of mass of the body deformed by ``u``, by component."""
-        return (self._first_moment + self.sums(u)) / self.mass
-
-    def _angular(self, positions: np.ndarray, momenta: np.ndarray) -> np.ndarray:
-        """sum_i x_i x p_i over the rows (2D: its z component; 1D: none)."""
-        if self.bs == 1:
-            return np.zeros(0)
-        if self.bs == 2:
-            return np.array(
-                [np.sum(positions[:, 0] * momenta[:, 1] - positions[:, 1] * momenta[:, 0])]
-            )
-        return np.cross(positions, momenta).sum(axis=0)
-
-    def values(self, u, v) -> dict[str, float]:
-        """The momentum, centre-of-mass and angular momentum columns at the state (u, v),
-        of the whole mesh and of each body, with one reduction over the ranks."""
-        momenta = self._rows(self._product(v, self._work))
-        displaced = self._rows(self._product(u, self._displaced))
-        current = self._positions + self._rows(u.x.array)
-        parts = [momenta, displaced, current]
-        local = [momenta.sum(0), displaced.sum(0), self._angular(current, momenta)]
-        local.append(self._angular(self._positions, momenta))
-        bodies = self.model.bodies
-        for body in bodies:
-            momenta_b, displaced_b, current_b = (part[body.nodes] for part in parts)
-            moment = self._first_moment_rows[body.nodes].sum(0) + displaced_b.sum(0)
-            local += [momenta_b.sum(0), moment, self._angular(current_b, momenta_b)]
-        if len(self._body_masses) != len(bodies):
-            self._body_masses = sum_over_ranks(
-                self.comm, [self._mass_rows[body.nodes].sum() for body in bodies]
-            ).tolist()
-        ends = np.cumsum([part.size for part in local])[:-1]
-        sums = iter(np.split(sum_over_ranks(self.comm, np.concatenate(local)), ends))
-        momentum, centre = next(sums), (self._first_moment + next(sums)) / self.mass
-        values = {
-            **dict(zip(self.momentum_names, momentum.tolist())),
-            **dict(zip(self.centre_names, centre.tolist())),
-            **dict(zip(self.angular_names, next(sums).tolist())),
-            **dict(zip(self.reference_names, next(sums).tolist())),
-        }
-        for body, mass in zip(bodies, self._body_masses):
-            each = [next(sums), next(sums) / mass, next(sums)]
-            values.update(zip(body_columns(body.tag, self.bs), np.concatenate(each).tolist()))
-        return values
 
 
 class Diagnostics:
@@ -520,51 +298,3 @@ class Diagnostics:
         elif self._each_forms is not None:
             values.update(self._each_forms.values())
         return values
-
-
-class PointValue:
-    """The value of a Function (or of one of its components) at a point of the body in
-    its reference configuration, for a history column: the same number on every rank.
-
-    The point's cell is found once; at each call, the rank that owns it (the lowest such
-    rank when the point lies between cells) evaluates the Function and sends the value to
-    the others. ``simulation.add_probe("u_top", PointValue(simulation.u, [0, 40], 1))``.
-
-    Args:
-        function: The Function (``simulation.u``, ``simulation.v``, ...).
-        point: The point, with the mesh's coordinates (1 to 3 of them).
-        component: The component of a vector Function (0 for x, ...); None for a scalar
-            Function.
-
-    Raises:
-        ValueError: The point is in no cell of the mesh, or the component does not fit.
-    """
-
-    def __init__(self, function: fem.Function, point, component: int | None = None):
-        mesh = function.function_space.mesh
-        self.comm = mesh.comm
-        self.function = function
-        size = int(np.prod(function.ufl_shape)) if function.ufl_shape else 1
-        if component is None and size != 1:
-            raise ValueError(f"{function.name} has {size} components: give the component")
-        if component is not None and not 0 <= int(component) < size:
-            raise ValueError(f"component={component!r}: {function.name} has {size} components")
-        self.component = 0 if component is None else int(component)
-        self.point = np.zeros((1, 3))
-        coordinates = np.asarray(point, dtype=float).reshape(-1)
-        self.point[0, : coordinates.size] = coordinates
-        cells = compat.cells_containing(mesh, self.point)
-        owned = mesh.topology.index_map(mesh.topology.dim).size_local
-        cells = [c for c in cells if c < owned]
-        self.cell = cells[0] if cells else -1
-        ranks = self.comm.allgather(self.cell >= 0)
-        if not any(ranks):
-            raise ValueError(f"the point {coordinates.tolist()} is in no cell of the mesh")
-        self.root = ranks.index(True)
-
-    def __call__(self) -> float:
-        value = None
-        if self.comm.rank == self.root:
-            values = self.function.eval(self.point, np.array([self.cell], dtype=np.int32))
-            value = float(np.asarray(values).reshape(-1)[self.component])
-        return self.comm.bcast(value, root=self.root) if self.comm.size > 1 else value

@@ -21,7 +21,7 @@ from petsc4py import PETSc
 
 from ..common import compat
 from ..contact.nitsche import heaviside, positive_part
-from .diagnostics import BoundaryField
+from .probes import BoundaryField
 
 __all__ = [
     "CellMean",
@@ -142,7 +142,7 @@ class OnBoundary:
     file is the field on the boundary, as ParaView draws it on the surface.
 
     Args:
-        function: The Function (a :class:`~nitsche_dolfinx.output.diagnostics.BoundaryField`'s).
+        function: The Function (a :class:`~nitsche_dolfinx.output.probes.BoundaryField`'s).
         facets: The facets of the part, local indices.
     """
 

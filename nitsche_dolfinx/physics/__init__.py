@@ -1,7 +1,7 @@
 """The continuum and its data: materials (`material`, `hyperelastic`, `regions`), rigid
 obstacles still or moving (`obstacles`, `motion`), the problem's values in space and time
-(`expressions`, `problem_values`, `valueforms`), Dirichlet conditions (`dirichlet`), damping
-(`damping`), the mass matrix (`mass`).
+(`expressions` and their walk `expression_walk`, `tables`, `problem_values`, `valueforms`),
+Dirichlet conditions (`dirichlet`), damping (`damping`), the mass matrix (`mass`).
 """
 
 from .damping import (
@@ -12,14 +12,12 @@ from .damping import (
     damped_stable_step,
 )
 from .dirichlet import DirichletCondition, DirichletDofs
+from .expression_walk import MAX_EXPONENT
 from .expressions import (
-    MAX_EXPONENT,
-    check_table,
     expression,
     has_text,
     parse_expression,
     parse_vector,
-    table_expression,
     to_ufl,
     vector_expression,
 )
@@ -45,6 +43,7 @@ from .obstacles import (
 )
 from .problem_values import ProblemValue, as_array
 from .regions import CellwiseMaterial
+from .tables import check_table, table_expression
 from .valueforms import (
     PROFILES,
     PiecewiseLinear,

@@ -22,155 +22,50 @@ floor. A chained comparison ``0.2 < x < 0.4`` means ``0.2 < x and x < 0.4``.
 Why ``ast`` and a whitelist: the text is parsed by Python's own parser, which only reads it,
 and the tree is walked by a builder that knows a few node types and refuses all others
 (attribute access, indexing, calls of anything but the functions above, names other than
-those above), so no user text ever runs as Python. The walk folds constant parts in floats
-and checks them: a constant exponent is at most :data:`MAX_EXPONENT` in magnitude, every
-constant is finite and at most :data:`~nitsche_dolfinx.common.keys.LARGEST` in magnitude, and
-``1/0``, ``log(-1)`` or ``exp(1000)`` are refused. A mistake raises
+those above), so no user text ever runs as Python
+(:class:`~nitsche_dolfinx.physics.expression_walk.ExpressionWalk`). The walk folds constant
+parts in floats and checks them: a constant exponent is at most
+:data:`~nitsche_dolfinx.physics.expression_walk.MAX_EXPONENT` in magnitude, every constant is
+finite and at most :data:`~nitsche_dolfinx.common.keys.LARGEST` in magnitude, and ``1/0``,
+``log(-1)`` or ``exp(1000)`` are refused. A mistake raises
 :class:`~nitsche_dolfinx.common.parameters.ParameterError` naming the key, the text and the
-offending token, before any UFL is built.
+offending token, before any UFL is built. Piecewise-linear tables are in
+:mod:`~nitsche_dolfinx.physics.tables`.
 """
 
 from __future__ import annotations
 
 import ast
-import functools
 import math
-import operator
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import numpy as np
 import ufl
 
 from ..common.keys import LARGEST, is_number
 from ..common.parameters import ParameterError
+from .expression_walk import COORDINATES, RUNTIME, ExpressionWalk, scope
+from .tables import is_list
 
 __all__ = [
-    "FUNCTIONS",
     "MAX_DEPTH",
-    "MAX_EXPONENT",
     "MAX_LENGTH",
-    "MAX_TABLE_POINTS",
     "ExpressionTree",
-    "check_table",
     "has_text",
     "expression",
     "parse_expression",
     "parse_vector",
-    "table_expression",
     "to_ufl",
     "vector_expression",
 ]
+
 
 #: The longest text of one expression, in characters.
 MAX_LENGTH = 1000
 #: The deepest nesting of operations (each operation, call or conditional counts one level,
 #: parentheses none).
 MAX_DEPTH = 100
-#: The largest magnitude of a constant exponent (``x**100`` is fine, ``2**1000`` is not).
-MAX_EXPONENT = 100
-#: The most points of a piecewise-linear table.
-MAX_TABLE_POINTS = 1000
-#: The names of coordinates, by component.
-COORDINATES = ("x", "y", "z")
-#: The named constants.
-CONSTANTS = {"pi": math.pi, "e": math.e}
-
-
-@dataclass(frozen=True)
-class _Function:
-    arity: int | None  # the number of arguments; None: two or more, folded
-    number: Callable  # on floats (constant folding)
-    form: Callable  # on UFL
-
-
-def _fold(pair: Callable) -> Callable:
-    return lambda *args: functools.reduce(pair, args)
-
-
-#: The functions an expression may call.
-FUNCTIONS = {
-    "sin": _Function(1, math.sin, ufl.sin),
-    "cos": _Function(1, math.cos, ufl.cos),
-    "tan": _Function(1, math.tan, ufl.tan),
-    "exp": _Function(1, math.exp, ufl.exp),
-    "log": _Function(1, math.log, ufl.ln),
-    "sqrt": _Function(1, math.sqrt, ufl.sqrt),
-    "abs": _Function(1, abs, abs),
-    "min": _Function(None, min, _fold(ufl.min_value)),
-    "max": _Function(None, max, _fold(ufl.max_value)),
-}
-
-_ARITHMETIC = {
-    ast.Add: ("+", operator.add),
-    ast.Sub: ("-", operator.sub),
-    ast.Mult: ("*", operator.mul),
-    ast.Div: ("/", operator.truediv),
-    ast.Pow: ("**", operator.pow),
-}
-_COMPARISONS = {
-    ast.Lt: ("<", operator.lt, ufl.lt),
-    ast.LtE: ("<=", operator.le, ufl.le),
-    ast.Gt: (">", operator.gt, ufl.gt),
-    ast.GtE: (">=", operator.ge, ufl.ge),
-    ast.Eq: ("==", operator.eq, ufl.eq),
-    ast.NotEq: ("!=", operator.ne, ufl.ne),
-}
-#: The tokens of the operators the language refuses, to name them.
-_REFUSED_OPERATORS = {
-    ast.FloorDiv: "//",
-    ast.Mod: "%",
-    ast.MatMult: "@",
-    ast.BitAnd: "&",
-    ast.BitOr: "|",
-    ast.LShift: "<<",
-    ast.RShift: ">>",
-    ast.Invert: "~",
-    ast.Not: "not",
-    ast.In: "in",
-    ast.NotIn: "not in",
-    ast.Is: "is",
-    ast.IsNot: "is not",
-}
-#: What the refused node types are, in the user's words.
-_REFUSED_NODES = {
-    ast.Attribute: "'.' (attribute access)",
-    ast.Subscript: "'[...]' (indexing)",
-    ast.Lambda: "'lambda'",
-    ast.NamedExpr: "':=' (assignment)",
-    ast.Starred: "'*' (unpacking)",
-    ast.JoinedStr: "an f-string",
-    ast.FormattedValue: "an f-string",
-    ast.ListComp: "a comprehension ('for')",
-    ast.SetComp: "a comprehension ('for')",
-    ast.DictComp: "a comprehension ('for')",
-    ast.GeneratorExp: "a generator ('for')",
-    ast.Tuple: "a tuple (',' or '()')",
-    ast.List: "a list ('[...]')",
-    ast.Set: "a set ('{...}')",
-    ast.Dict: "a dict ('{...}')",
-    ast.Await: "'await'",
-    ast.Yield: "'yield'",
-    ast.YieldFrom: "'yield'",
-}
-
-
-class _Runtime:
-    """A value known only when the expression runs (x, t): what the check computes with."""
-
-    def _same(self, *_):
-        return self
-
-    __add__ = __radd__ = __sub__ = __rsub__ = __mul__ = __rmul__ = _same
-    __truediv__ = __rtruediv__ = __pow__ = __rpow__ = __neg__ = __pos__ = __abs__ = _same
-
-
-_RUNTIME = _Runtime()
-
-
-def _runtime(*values) -> bool:
-    return any(value is _RUNTIME for value in values)
 
 
 @dataclass(frozen=True)
@@ -225,10 +120,10 @@ def parse_expression(text: str | float, *, name: str, gdim: int) -> ExpressionTr
     source = text.replace("^", "**")  # '^' means nothing else: no strings in the language
     tree = _parse(text, source, name)
     _check_depth(tree, text, name)
-    names = _names(gdim, [_RUNTIME] * gdim, _RUNTIME)
-    builder = _Builder(text, source, name, names)
+    names = scope(gdim, [RUNTIME] * gdim, RUNTIME)
+    builder = ExpressionWalk(text, source, name, names)
     value = builder.value(tree.body)
-    number = None if value is _RUNTIME else float(value)
+    number = None if value is RUNTIME else float(value)
     return ExpressionTree(text, name, gdim, frozenset(builder.used), number, tree, source)
 
 
@@ -251,8 +146,8 @@ def to_ufl(tree: ExpressionTree, x, t=None):
         raise ValueError(f"x has shape {x.ufl_shape}, the expression is for gdim={tree.gdim}")
     if t is None and tree.uses_time:
         raise ParameterError(tree.name, tree.text, "'t' (time) is not available here")
-    names = _names(tree.gdim, [x[i] for i in range(tree.gdim)], t)
-    builder = _Builder(tree.text, tree._source, tree.name, names)
+    names = scope(tree.gdim, [x[i] for i in range(tree.gdim)], t)
+    builder = ExpressionWalk(tree.text, tree._source, tree.name, names)
     return ufl.as_ufl(builder.value(tree._tree.body))
 
 
@@ -289,7 +184,7 @@ def parse_vector(texts: Sequence[str | float], *, name: str, gdim: int):
     Raises:
         ParameterError: Not a list of gdim components, or a component is not an expression.
     """
-    if not _is_list(texts):
+    if not is_list(texts):
         raise ParameterError(name, texts, f"must be a list of {gdim} components")
     if len(texts) != gdim:
         requirement = f"wrong dimension: {len(texts)} components for a mesh of dimension {gdim}"
@@ -317,74 +212,6 @@ def vector_expression(texts: Sequence[str | float], mesh, t=None, *, name: str):
     trees = parse_vector(texts, name=name, gdim=mesh.geometry.dim)
     x = ufl.SpatialCoordinate(mesh)
     return ufl.as_vector([to_ufl(tree, x, t) for tree in trees])
-
-
-def check_table(points: Sequence[float], values: Sequence[float], *, name: str):
-    """Check a piecewise-linear table: points strictly increasing, values, all finite.
-
-    Args:
-        points: The abscissae, at least one, strictly increasing.
-        values: The values at the points, as many as points.
-        name: The key naming the table in messages.
-
-    Returns:
-        ``(points, values)`` as tuples of floats.
-
-    Raises:
-        ParameterError: Naming the offending entry.
-    """
-    points, values = _numbers(points, f"{name}.points"), _numbers(values, f"{name}.values")
-    if len(points) != len(values):
-        requirement = f"one value per point: {len(values)} values for {len(points)} points"
-        raise ParameterError(f"{name}.values", list(values), requirement)
-    for i in range(1, len(points)):
-        if not points[i] > points[i - 1]:
-            requirement = (
-                f"points must increase strictly: points[{i}] = {points[i]!r} is not greater "
-                f"than points[{i - 1}] = {points[i - 1]!r}"
-            )
-            raise ParameterError(f"{name}.points", list(points), requirement)
-    for i in range(1, len(points)):
-        if not math.isfinite(_slope(points, values, i)):
-            requirement = f"the slope between points[{i - 1}] and points[{i}] is not finite"
-            raise ParameterError(f"{name}.points", list(points), requirement)
-    return points, values
-
-
-def table_expression(points: Sequence[float], values: Sequence[float], variable, *, name: str):
-    """The piecewise-linear interpolation of a table, constant beyond its ends.
-
-    Args:
-        points: The abscissae, strictly increasing (see :func:`check_table`).
-        values: The values at the points.
-        variable: The scalar UFL expression the table is a function of, e.g. the time ``t``
-            (a ``fem.Constant``) or a coordinate ``x[0]``.
-        name: The key naming the table in messages.
-
-    Returns:
-        A scalar UFL expression: nested ``ufl.conditional``, balanced so that their depth
-        grows as log2 of the number of points.
-
-    Raises:
-        ParameterError: The table is not valid (:func:`check_table`).
-    """
-    points, values = check_table(points, values, name=name)
-    if len(points) == 1:
-        return ufl.as_ufl(values[0])
-
-    def piece(k: int):  # between points[k - 1] and points[k]; 0 and n: beyond the ends
-        if k == 0 or k == len(points):
-            return ufl.as_ufl(values[max(k - 1, 0)])
-        return values[k - 1] + _slope(points, values, k) * (variable - points[k - 1])
-
-    def pieces(low: int, high: int):
-        if low == high:
-            return piece(low)
-        middle = (low + high) // 2
-        below = ufl.lt(variable, points[middle])
-        return ufl.conditional(below, pieces(low, middle), pieces(middle + 1, high))
-
-    return pieces(0, len(points))
 
 
 def has_text(value) -> bool:
@@ -452,231 +279,3 @@ def _check_depth(tree: ast.Expression, text: str, name: str) -> None:
         if deepest > MAX_DEPTH:
             requirement = f"operations nested deeper than {MAX_DEPTH} levels"
             raise ParameterError(name, text, requirement)
-
-
-def _names(gdim: int, coordinates: list, t) -> dict:
-    """The names an expression on a mesh of dimension gdim may use, and their values."""
-    return {**dict(zip(COORDINATES[:gdim], coordinates)), "t": t, **CONSTANTS}
-
-
-def _numbers(numbers, name: str) -> tuple[float, ...]:
-    if not _is_list(numbers):
-        raise ParameterError(name, numbers, "must be a list of numbers")
-    if not 1 <= len(numbers) <= MAX_TABLE_POINTS:
-        requirement = f"must have from 1 to {MAX_TABLE_POINTS} entries, has {len(numbers)}"
-        raise ParameterError(name, list(numbers), requirement)
-    for i, number in enumerate(numbers):
-        if not (is_number(number) and math.isfinite(number) and abs(number) <= LARGEST):
-            requirement = f"entry [{i}] = {number!r} is not a finite number of size <= {LARGEST:g}"
-            raise ParameterError(name, list(numbers), requirement)
-    return tuple(float(number) for number in numbers)
-
-
-def _is_list(value) -> bool:
-    return isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, (str, bytes))
-
-
-def _slope(points, values, k: int) -> float:
-    try:
-        return (values[k] - values[k - 1]) / (points[k] - points[k - 1])
-    except (OverflowError, ZeroDivisionError):
-        return math.inf
-
-
-def _number(value: float) -> str:
-    """A constant as a user would write it: ``1000000``, not ``1e+06``."""
-    return str(int(value)) if value.is_integer() and abs(value) < 1e30 else repr(value)
-
-
-# -- the walk ----------------------------------------------------------------------------
-
-
-class _Builder:
-    """Walks a parsed expression, node types from a whitelist only, and computes its value
-    from ``names``: floats fold, :data:`_RUNTIME` stands for x and t when checking, UFL
-    objects when building. Conditions are Python bools when constant."""
-
-    def __init__(self, text: str, source: str, name: str, names: dict):
-        self.text, self.source, self.name, self.names = text, source, name, names
-        self.used: set[str] = set()
-
-    def fail(self, requirement: str):
-        raise ParameterError(self.name, self.text, requirement)
-
-    def segment(self, node: ast.AST) -> str:
-        return ast.get_source_segment(self.source, node) or type(node).__name__
-
-    def value(self, node: ast.AST):
-        walk = {
-            ast.Constant: self._constant,
-            ast.Name: self._name,
-            ast.UnaryOp: self._unary,
-            ast.BinOp: self._binary,
-            ast.Call: self._call,
-            ast.IfExp: self._if,
-        }.get(type(node))
-        if walk is None:
-            self._refuse(node)
-        return walk(node)
-
-    def _refuse(self, node: ast.AST):
-        if isinstance(node, ast.Compare):  # name 'in' or 'is' before 'a condition'
-            for op in node.ops:
-                self._operator(op, _COMPARISONS)
-        if isinstance(node, (ast.Compare, ast.BoolOp)):
-            self.fail(
-                f"'{self.segment(node)}' is a condition, not a number: use it in "
-                "'a if condition else b'"
-            )
-        what = _REFUSED_NODES.get(type(node), type(node).__name__)
-        self.fail(f"{what} is not allowed: '{self.segment(node)}'")
-
-    def _constant(self, node: ast.Constant) -> float:
-        literal = self.segment(node)
-        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-            self.fail(f"{literal} is not a number (only numbers, names and functions)")
-        try:
-            number = float(node.value)
-        except OverflowError:
-            number = math.inf
-        return self._checked(number, literal)
-
-    def _checked(self, number: float, what: str) -> float:
-        if not (math.isfinite(number) and abs(number) <= LARGEST):
-            self.fail(f"'{what}' is {number:g}: not finite or larger than {LARGEST:g}")
-        return number
-
-    def _name(self, node: ast.Name):
-        if node.id not in self.names:
-            self._unknown(node.id)
-        self.used.add(node.id)
-        return self.names[node.id]
-
-    def _unknown(self, name: str):
-        allowed = ", ".join(self.names)
-        if name in COORDINATES:
-            gdim = sum(c in self.names for c in COORDINATES)
-            self.fail(
-                f"coordinate '{name}' does not exist on a mesh of dimension {gdim} "
-                f"(allowed: {allowed})"
-            )
-        if name in FUNCTIONS:
-            self.fail(f"'{name}' is a function: call it as {name}(...)")
-        self.fail(f"unknown name '{name}' (allowed: {allowed})")
-
-    def _operator(self, op: ast.AST, table: dict):
-        if type(op) not in table:
-            token = _REFUSED_OPERATORS.get(type(op), type(op).__name__)
-            self.fail(f"operator '{token}' is not allowed")
-        return table[type(op)]
-
-    def _unary(self, node: ast.UnaryOp):
-        self._operator(node.op, {ast.USub: None, ast.UAdd: None})
-        operand = self.value(node.operand)
-        return -operand if isinstance(node.op, ast.USub) else operand
-
-    def _binary(self, node: ast.BinOp):
-        token, apply = self._operator(node.op, _ARITHMETIC)
-        left, right = self.value(node.left), self.value(node.right)
-        if isinstance(node.op, ast.Pow) and isinstance(right, float):
-            right = self._exponent(right, node)
-        if isinstance(node.op, ast.Div) and isinstance(right, float) and right == 0.0:
-            self.fail(f"division by zero in '{self.segment(node)}'")
-        if isinstance(left, float) and isinstance(right, (float, int)):
-            apply = math.pow if token == "**" else apply
-            return self._folded(apply, (left, right), node)
-        return apply(left, right)
-
-    def _exponent(self, exponent: float, node: ast.BinOp):
-        if abs(exponent) > MAX_EXPONENT:
-            self.fail(
-                f"exponent {_number(exponent)} is too large (at most {MAX_EXPONENT}) "
-                f"in '{self.segment(node)}'"
-            )
-        return int(exponent) if exponent.is_integer() else exponent
-
-    def _folded(self, apply: Callable, args: tuple, node: ast.AST) -> float:
-        try:
-            number = float(apply(*args))
-        except (ValueError, ZeroDivisionError):
-            number = math.nan
-        except OverflowError:
-            number = math.inf
-        if math.isnan(number):
-            self.fail(f"'{self.segment(node)}' is undefined")
-        return self._checked(number, self.segment(node))
-
-    def _call(self, node: ast.Call):
-        function = self._function(node)
-        args = [self.value(arg) for arg in node.args]
-        if all(isinstance(arg, float) for arg in args):
-            return self._folded(function.number, args, node)
-        if _runtime(*args):
-            return _RUNTIME
-        return function.form(*args)
-
-    def _function(self, node: ast.Call) -> _Function:
-        listed = ", ".join(FUNCTIONS)
-        if isinstance(node.func, tuple(_REFUSED_NODES)):
-            self._refuse(node.func)
-        if not isinstance(node.func, ast.Name):
-            self.fail(f"calling '{self.segment(node.func)}' is not allowed (only {listed})")
-        name = node.func.id
-        if name not in FUNCTIONS:
-            self.fail(f"function '{name}' is not in the list ({listed})")
-        for keyword in node.keywords:
-            written = f"{keyword.arg}=" if keyword.arg else "**"
-            self.fail(f"keyword argument '{written}' is not allowed in '{name}(...)'")
-        function, count = FUNCTIONS[name], len(node.args)
-        if count != function.arity and not (function.arity is None and count >= 2):
-            wanted = "two or more arguments" if function.arity is None else "one argument"
-            self.fail(f"function '{name}' takes {wanted}, got {count}")
-        return function
-
-    def _if(self, node: ast.IfExp):
-        condition = self.condition(node.test)
-        chosen, other = self.value(node.body), self.value(node.orelse)
-        if isinstance(condition, bool):
-            return chosen if condition else other
-        if _runtime(condition, chosen, other):
-            return _RUNTIME
-        return ufl.conditional(condition, chosen, other)
-
-    def condition(self, node: ast.AST):
-        if isinstance(node, ast.BoolOp):
-            combine = self._operator(node.op, {ast.And: _and, ast.Or: _or})
-            return functools.reduce(combine, [self.condition(v) for v in node.values])
-        if not isinstance(node, ast.Compare):
-            self.fail(
-                f"the condition '{self.segment(node)}' of 'a if condition else b' must be a "
-                "comparison (< <= > >= == !=)"
-            )
-        operands = [self.value(node.left)] + [self.value(c) for c in node.comparators]
-        tests = [
-            _compare(self._operator(op, _COMPARISONS), left, right)
-            for op, left, right in zip(node.ops, operands, operands[1:])
-        ]
-        return functools.reduce(_and, tests)
-
-
-def _compare(comparison: tuple, left, right):
-    _, number, form = comparison
-    if isinstance(left, float) and isinstance(right, float):
-        return number(left, right)
-    if _runtime(left, right):
-        return _RUNTIME
-    return form(left, right)
-
-
-def _and(left, right):
-    if isinstance(left, bool) or isinstance(right, bool):
-        constant, other = (left, right) if isinstance(left, bool) else (right, left)
-        return other if constant else False
-    return _RUNTIME if _runtime(left, right) else ufl.And(left, right)
-
-
-def _or(left, right):
-    if isinstance(left, bool) or isinstance(right, bool):
-        constant, other = (left, right) if isinstance(left, bool) else (right, left)
-        return True if constant else other
-    return _RUNTIME if _runtime(left, right) else ufl.Or(left, right)

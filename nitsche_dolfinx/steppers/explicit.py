@@ -36,8 +36,9 @@ from ..contact.coercivity import coercivity_ratio, constant_value
 from ..contact.nitsche import positive_part
 from ..contact.quadrature import QuadratureContact
 from ..model.problem import ContactProblem
-from ..output.diagnostics import Diagnostics, assembled_matrix
+from ..output.diagnostics import Diagnostics
 from ..output.fields import ContactFields, LevelRefresh, body_fields
+from ..output.mass_moments import assembled_matrix
 from ..physics.damping import DampingPower, damped_stable_step
 from ..physics.dirichlet import DirichletDofs
 from ..solvers.solver import SolverError

@@ -14,7 +14,7 @@ from dolfinx import fem
 from petsc4py import PETSc
 
 from ..contact.terms import ContactTerms, GuardedFriction, friction_terms
-from ..output.diagnostics import BoundaryField, assemble_global
+from ..output.probes import BoundaryField, assemble_global
 from ..solvers.solver import SNESSolver, SolverError
 
 __all__ = ["FrictionOutput", "GuardedNewton"]

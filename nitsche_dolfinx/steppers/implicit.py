@@ -21,8 +21,9 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
+from ..assembly.affine_system import AffineSystem, StepForms
 from ..assembly.pair_coupling import PairCoupling
-from ..assembly.systems import AffineSystem, FormSystem, StepForms
+from ..assembly.systems import FormSystem
 from ..common import compat
 from ..common.parameters import ParameterError, TimeStepping
 from ..contact.terms import ContactTerms, contact_activity, contact_parts

@@ -32,8 +32,10 @@ from ..common import compat
 from ..common.parameters import ParameterError, TimeStepping
 from ..contact.nitsche import positive_part
 from ..model.problem import ContactProblem
-from ..output.diagnostics import MassMoments, Penetration, assemble_global
+from ..output.diagnostics import Penetration
 from ..output.fields import ContactFields, LevelRefresh, body_fields
+from ..output.mass_moments import MassMoments
+from ..output.probes import assemble_global
 from ..physics.dirichlet import DirichletDofs
 from ..solvers.linear_solvers import LinearSolver
 from ..solvers.solver import SNESSolver

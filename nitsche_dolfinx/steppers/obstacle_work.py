@@ -32,7 +32,7 @@ from __future__ import annotations
 from dolfinx import fem
 
 from ..contact.nitsche import PenaltyContact, hybrid_contact_force, positive_part
-from ..output.diagnostics import assemble_global
+from ..output.probes import assemble_global
 from .schemes import HybridScheme
 
 __all__ = ["ObstacleWork"]

@@ -14,7 +14,7 @@ from ..assembly.pair_coupling import add_partner_terms
 from ..common import compat
 from ..contact.coercivity import constant_value
 from ..model.problem import ContactProblem
-from ..output.diagnostics import assembled_matrix
+from ..output.mass_moments import assembled_matrix
 
 __all__ = ["largest_eigenvalue", "round_down", "stable_step"]
 
