@@ -1,9 +1,8 @@
 """The run driver: a :class:`ContactProblem <nitsche_dolfinx.model.problem.ContactProblem>`
 marched in time, with its history, fields, checkpoints, restarts and signals.
 
-:class:`Simulation` builds the stepper of the problem's method (Nitsche and
-penalty: :class:`~nitsche_dolfinx.steppers.implicit.NitscheStepper`; mixed:
-:class:`~nitsche_dolfinx.steppers.mixed.MixedStepper`) and runs it; everything around
+:class:`Simulation` builds the stepper of the problem's method and scheme
+(:func:`~nitsche_dolfinx.steppers.factory.make_stepper`) and runs it; everything around
 the steps is the same for every method::
 
     simulation = Simulation(problem, HybridScheme(), dt=0.015, t_end=6.0)
@@ -29,13 +28,9 @@ from .output.history import HISTORY_COLUMNS, History
 from .output.progress import Progress
 from .output.series import continue_solution
 from .output.writers import HistoryWriter, SolutionWriter, ensure_directory
-from .solvers.linear_solvers import LinearSolver
-from .solvers.linear_solvers import linear_solver as linear_solver_preset
 from .solvers.solver import SolverError
 from .steppers.base import Stepper
-from .steppers.explicit import ExplicitStepper
-from .steppers.implicit import NitscheStepper
-from .steppers.mixed import MixedStepper
+from .steppers.factory import make_stepper, step_linear_solver
 from .steppers.schemes import TimeScheme
 
 __all__ = ["Simulation"]
@@ -113,43 +108,24 @@ class Simulation:
         linear_solver: str | None = "auto",
         max_step_cuts: int = 5,
     ):
-        explicit = scheme.explicit
         time_stepping = TimeStepping(dt, t_end, max_step_cuts)
         require(
-            explicit or not time_stepping.automatic, "dt", dt,
+            scheme.explicit or not time_stepping.automatic, "dt", dt,
             "an automatic step is the verlet scheme's (its stable step): give tau",
         )  # fmt: skip
         SolverParameters(reuse_jacobian, preconditioner_lag, guard_friction)
         # the set-up leaves reference cycles (UFL, forms) that hold PETSc vectors
         with garbage_collected_together(problem.mesh.comm):
             self.max_step_cuts = int(max_step_cuts)
-            chosen = {"ksp_type", "pc_type"} & set(petsc_options or {}) or preconditioner_lag
-            if linear_solver == "auto" and chosen:
-                linear_solver = None  # the user chose the linear solver: no preset
-            if explicit:
-                preset = LinearSolver("none", {}, 0, description="none (explicit)")
-            elif linear_solver is None:  # the default direct solve with the user's options
-                preset = LinearSolver("default", {}, int(preconditioner_lag), description="default")
-            else:
-                preset = linear_solver_preset(linear_solver, problem.mesh.comm, problem, dt)
+            solver = step_linear_solver(
+                problem, scheme, dt, linear_solver, petsc_options, preconditioner_lag
+            )
             #: The linear solver in words, for summaries.
-            self.solver_description = preset.description
-            if explicit:
-                self.stepper = ExplicitStepper(problem, scheme, time_stepping)
-            elif problem.method == "mixed":
-                self.stepper: Stepper = MixedStepper(
-                    problem, scheme, time_stepping, petsc_options, preset
-                )
-            else:
-                self.stepper = NitscheStepper(
-                    problem,
-                    scheme,
-                    time_stepping,
-                    petsc_options,
-                    preset,
-                    reuse_jacobian,
-                    guard_friction,
-                )
+            self.solver_description = solver.description
+            self.stepper: Stepper = make_stepper(
+                problem, scheme, time_stepping, petsc_options, solver, reuse_jacobian,
+                guard_friction,
+            )  # fmt: skip
         self.progress = progress
         self._probes: dict[str, Callable[[], float]] = {}
 

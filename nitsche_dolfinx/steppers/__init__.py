@@ -1,12 +1,16 @@
 """Time stepping: the schemes (`schemes`), the time levels (`timelevels`), what every stepper
-shares (`base`), the implicit Nitsche and penalty steps (`implicit`), the explicit steps
-(`explicit`, `explicit_mass`, `stable_step`), the mixed method (`mixed`), and the parts a
-step may carry: friction (`friction`), the work of loads and supports (`work`), of moving
+shares (`base`) and what the Nitsche steppers share (`balance`), the implicit Nitsche and
+penalty steps (`implicit`, with their solver `step_solver`), the explicit steps (`explicit`,
+`explicit_force`, `explicit_mass`, `stable_step`, `blowup`), the mixed method (`mixed`),
+the stepper of a problem (`factory`), and the parts a step may carry (`parts`): friction
+(`friction`), damping (`damping_work`), the work of loads and supports (`work`), of moving
 obstacles (`obstacle_work`).
 """
 
 from .base import Stepper, UncontrolledStep, energy_controlled
-from .explicit import ExplicitStepper, UnstableStep
+from .blowup import UnstableStep
+from .explicit import ExplicitStepper
+from .factory import make_stepper, step_linear_solver
 from .implicit import NitscheStepper
 from .mixed import MixedStepper
 from .schemes import (
@@ -40,7 +44,9 @@ __all__ = [
     "contact_stiffness_form",
     "energy_controlled",
     "make_scheme",
+    "make_stepper",
     "reaction_columns",
     "round_down",
     "scheme_parameters",
+    "step_linear_solver",
 ]

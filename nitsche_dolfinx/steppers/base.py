@@ -1,8 +1,11 @@
 """What every stepper shares (:class:`~nitsche_dolfinx.steppers.implicit.NitscheStepper`,
+:class:`~nitsche_dolfinx.steppers.explicit.ExplicitStepper`,
 :class:`~nitsche_dolfinx.steppers.mixed.MixedStepper`): the :class:`Stepper` protocol that
-:class:`~nitsche_dolfinx.simulation.Simulation` drives, the initial state (u0, v0 and the
-consistent a0, docs/method.md section 3), the energy control of a step (docs/method.md
-section 8), the velocity of massless nodes and the description a checkpoint keeps.
+:class:`~nitsche_dolfinx.simulation.Simulation` drives and the base class
+:class:`StepperBase` (the state u, v, a and its copy, the description and the state a
+checkpoint keeps, the opening of a restore), the initial state (u0, v0 and the consistent
+a0, docs/method.md section 3), the energy control of a step (docs/method.md section 8), the
+velocity of massless nodes and the loads' vector.
 """
 
 from __future__ import annotations
@@ -24,10 +27,13 @@ from ..physics.damping import DiagonalDamping
 from ..physics.problem_values import as_array
 from ..solvers.linear_solvers import LinearSolver
 from ..solvers.solver import SNESSolver, SolverError
+from .timelevels import TimeLevels
 
 __all__ = [
     "ENERGY_CONTROL",
+    "LoadVector",
     "Stepper",
+    "StepperBase",
     "UncontrolledStep",
     "check_initial_gap",
     "check_pairs_apart",
@@ -36,6 +42,7 @@ __all__ = [
     "initial_acceleration",
     "interpolate_initial",
     "massless_velocity",
+    "owned_vector",
 ]
 
 
@@ -280,3 +287,92 @@ def checkpoint_description(stepper) -> dict[str, Any]:
     if problem.damping is not None:  # (absent without damping: older checkpoints fit)
         description["damping"] = list(problem.damping.values)
     return description
+
+
+def owned_vector(form: fem.Form, V) -> np.ndarray:
+    """The vector of the linear ``form`` on ``V``, assembled and summed over the ranks: its
+    owned entries."""
+    vector = compat.create_vector(V)
+    with vector.localForm() as local:
+        local.set(0.0)
+    fem_petsc.assemble_vector(vector, form)
+    vector.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = vector.array_r.copy()
+    vector.destroy()
+    return values
+
+
+class LoadVector:
+    """The vector of a load ``form`` at the problem's time (owned dofs), assembled once when
+    the problem's loads do not depend on t (:attr:`ContactProblem.loads_in_time`)."""
+
+    def __init__(self, problem: ContactProblem, form: fem.Form):
+        self.problem, self.form = problem, form
+        self._values = None
+
+    def __call__(self) -> np.ndarray:
+        if self._values is None or self.problem.loads_in_time:
+            self._values = owned_vector(self.form, self.problem.V)
+        return self._values
+
+
+class StepperBase(TimeLevels):
+    """What every stepper of the package holds alike: the problem, its scheme and the clock
+    (:class:`~nitsche_dolfinx.steppers.timelevels.TimeLevels`), the state u, v, a and its
+    copy to put back after a refused step, the description and the state a checkpoint
+    keeps, the opening of :meth:`restore`, and the columns of the clock and the solve."""
+
+    def _start(self, problem: ContactProblem, scheme, time_stepping) -> None:
+        """The problem, the scheme, the clock from ``time_stepping`` (None: started later)
+        and the state u, v, a (zero) on the problem's space."""
+        self.problem, self.scheme = problem, scheme
+        if time_stepping is not None:
+            self._start_levels(time_stepping)
+        self.comm = problem.mesh.comm
+        V = problem.V
+        self.u = fem.Function(V, name="displacement")
+        self.v = fem.Function(V, name="velocity")
+        self.a = fem.Function(V, name="acceleration")
+        self.newton_iterations, self.step_seconds = 0, 0.0
+        self._previous = [np.empty_like(f.x.array) for f in (self.u, self.v, self.a)]
+
+    def _keep_state(self) -> None:
+        """Copy u^n, v^n, a^n, to put back should the step be refused."""
+        for previous, function in zip(self._previous, (self.u, self.v, self.a)):
+            previous[:] = function.x.array
+
+    def _put_back_state(self) -> None:
+        """u, v, a of the last level again (:meth:`_keep_state`)."""
+        for previous, function in zip(self._previous, (self.u, self.v, self.a)):
+            function.x.array[:] = previous
+
+    def _state_functions(self) -> dict[str, fem.Function]:
+        """The state by name: u, v and a."""
+        return {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+
+    def checkpoint_functions(self) -> dict[str, fem.Function]:
+        """Everything the next step depends on, by name: the state."""
+        return self._state_functions()
+
+    def describe(self) -> dict[str, Any]:
+        """What a checkpoint shares with the stepper that reloads it
+        (:func:`checkpoint_description`)."""
+        return checkpoint_description(self)
+
+    def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
+        """Move to a time level whose functions were just loaded (``saved``: the
+        checkpoint's description and levels): the clock, the last step's Newton
+        iterations and the data at ``t``."""
+        self._restore_levels(t, step_index, saved)
+        self.newton_iterations = int(saved.get("newton_iterations", 0))
+        self.step_seconds = 0.0
+        self.problem.set_time(t)
+
+    def _clock_columns(self) -> dict[str, float]:
+        """The history columns of the last step's solve and size."""
+        return {
+            "newton_iterations": self.newton_iterations,
+            "step_seconds": self.step_seconds,
+            "dt": self.last_dt,
+            "step_cuts": self.step_cuts,
+        }

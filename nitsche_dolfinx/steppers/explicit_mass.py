@@ -28,7 +28,14 @@ from ..physics.mass import density
 from ..solvers.linear_solvers import direct_options, has_mumps
 from ..solvers.solver import SolverError
 
-__all__ = ["ConsistentMass", "DiagonalMass", "MasslessNodes", "MasslessNotConverged"]
+__all__ = [
+    "ConsistentMass",
+    "DiagonalMass",
+    "MasslessNodes",
+    "MasslessNotConverged",
+    "explicit_mass",
+    "unit_density_mass",
+]
 
 #: The consistent mass's conjugate gradients: relative residual, iterations.
 CG_RTOL, CG_MAX_IT = 1e-12, 1000
@@ -132,6 +139,21 @@ class ConsistentMass:
         """Free the PETSc objects (collective)."""
         for obj in (self.ksp, self._solving, self.matrix, self._rhs, self._solution):
             obj.destroy()
+
+
+def explicit_mass(problem, fixed: np.ndarray):
+    """The mass the steps of ``problem`` divide by: consistent (CG), or its diagonal
+    (lumped, redistributed); ``fixed`` the local dofs without an acceleration of their own."""
+    if problem.mass == "consistent":
+        return ConsistentMass(problem.V, problem.material_constants.rho, fixed)
+    return DiagonalMass(problem.mass_diagonal(), fixed)
+
+
+def unit_density_mass(problem, fixed: np.ndarray):
+    """The mass of density 1 of the problem's kind (diagonal, or consistent)."""
+    if problem.mass == "consistent":
+        return ConsistentMass(problem.V, 1.0, fixed)
+    return DiagonalMass(problem.mass_matrix.of_unit_density().diagonal(), fixed)
 
 
 class MasslessNotConverged(SolverError):

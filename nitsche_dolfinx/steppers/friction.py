@@ -3,7 +3,9 @@ semismooth Newton of a frictional step, and the friction output.
 
 - :class:`GuardedNewton`: the step's Newton solve on the friction law guarded by a
   reference state (:class:`~nitsche_dolfinx.contact.terms.GuardedFriction`);
-- :class:`FrictionOutput`: the work D^n of a step and the friction fields on Gamma_C.
+- :class:`FrictionOutput`: the work D^n of a step and the friction fields on Gamma_C;
+- :class:`FrictionWork`: D^n as a part of the steps
+  (:class:`~nitsche_dolfinx.steppers.parts.StepPart`), summed since t = 0.
 """
 
 from __future__ import annotations
@@ -16,8 +18,9 @@ from petsc4py import PETSc
 from ..contact.terms import ContactTerms, GuardedFriction, friction_terms
 from ..output.probes import BoundaryField, assemble_global
 from ..solvers.solver import SNESSolver, SolverError
+from .parts import StepEnds, StepPart
 
-__all__ = ["FrictionOutput", "GuardedNewton"]
+__all__ = ["FrictionOutput", "FrictionWork", "GuardedNewton"]
 
 
 class FrictionOutput:
@@ -72,6 +75,29 @@ class FrictionOutput:
         (collective)."""
         for field in self.fields:
             field.update()
+
+
+class FrictionWork(StepPart):
+    """The friction's work D^n of each step (``friction_dissipation``) and its sum since
+    t = 0, the friction's share of the energy balance (docs/method.md section 13)."""
+
+    def __init__(self, output: FrictionOutput):
+        self.output = output
+
+    def step(self, ends: StepEnds) -> None:
+        self.step_dissipation = self.output.work(ends.u1 - ends.u)  # before u^n is overwritten
+
+    def accept(self, level: int, ends: StepEnds) -> None:
+        self.dissipated += self.step_dissipation
+
+    def columns(self) -> dict[str, float]:
+        return {"friction_dissipation": self.step_dissipation}
+
+    def saved(self) -> dict[str, float]:
+        return {"friction_total": self.dissipated}
+
+    def restore(self, saved: dict) -> None:
+        self.dissipated = float(saved.get("friction_total", 0.0))
 
 
 class GuardedNewton:

@@ -40,14 +40,13 @@ from ..physics.dirichlet import DirichletDofs
 from ..solvers.linear_solvers import LinearSolver
 from ..solvers.solver import SNESSolver
 from .base import (
+    StepperBase,
     check_initial_gap,
-    checkpoint_description,
     initial_acceleration,
     interpolate_initial,
     massless_velocity,
 )
 from .schemes import CrankNicolson
-from .timelevels import TimeLevels
 
 __all__ = ["MixedStepper"]
 
@@ -89,7 +88,7 @@ def _check_mixed(problem: ContactProblem, scheme) -> None:
         raise ValueError("the mixed method supports homogeneous Dirichlet values only")
 
 
-class MixedStepper(TimeLevels):
+class MixedStepper(StepperBase):
     """Crank-Nicolson steps of a :class:`~nitsche_dolfinx.model.problem.ContactProblem` whose
     method is ``"mixed"``: contact by a Lagrange multiplier, one obstacle.
 
@@ -108,9 +107,7 @@ class MixedStepper(TimeLevels):
         linear_solver: LinearSolver | None = None,
     ):
         _check_mixed(problem, scheme)
-        self.problem, self.scheme = problem, scheme
-        self._start_levels(time_stepping)
-        self.comm = problem.mesh.comm
+        self._start(problem, scheme, time_stepping)
         self.contact, self.tag = problem.contacts[0], problem.contact_tags[0]
         V0, Q = self._spaces()
         bcs = self._boundary_conditions(V0, Q)
@@ -134,12 +131,11 @@ class MixedStepper(TimeLevels):
         self._moments = MassMoments(problem)  # momentum and centre of mass
         self._massless = problem.massless_dofs()
         self._contact_fields = None  # ContactFields, once the output asks for them
-        self.newton_iterations, self.step_seconds = 0, 0.0
         self._initialize()
 
     def _spaces(self):
-        """The mixed space W of (a, lambda), the state on V and the unknown on W; returns
-        the collapsed displacement and multiplier spaces."""
+        """The mixed space W of (a, lambda) and the unknown on W; returns the collapsed
+        displacement and multiplier spaces."""
         problem = self.problem
         W = compat.mixed_function_space(
             problem.mesh, [("Lagrange", problem.degree, (problem.gdim,)), ("Lagrange", 1, ())]
@@ -151,9 +147,6 @@ class MixedStepper(TimeLevels):
         # numbering, and is scalar for a 1D vector part from dolfinx 0.7): match the dofs
         V = problem.V
         self._w_index = u_dofs[_matching_dofs(V, V0)]
-        self.u = fem.Function(V, name="displacement")
-        self.v = fem.Function(V, name="velocity")
-        self.a = fem.Function(V, name="acceleration")
         self.x = fem.Function(W)  # the unknown (a^{n+1}, lambda^{n+1})
         self._lambda = ufl.split(self.x)[1]
         # the multiplier on its own space, for checkpoints (the next step starts from it)
@@ -261,10 +254,7 @@ class MixedStepper(TimeLevels):
             "contact_force": force,
             "contact_area": assemble_global(self._area, self.comm),
             "penetration_max": self._penetration.max(),
-            "newton_iterations": self.newton_iterations,
-            "step_seconds": self.step_seconds,
-            "dt": self.last_dt,
-            "step_cuts": self.step_cuts,
+            **self._clock_columns(),
             **self._moments.values(self.u, self.v),
         }
         values["contact_force_1"], values["contact_area_1"] = force, values["contact_area"]
@@ -316,22 +306,9 @@ class MixedStepper(TimeLevels):
         """u, v, a and the multiplier lambda (copied out of the mixed unknown), by name:
         everything the next step depends on."""
         self.multiplier.x.array[:] = self.x.x.array[self._lambda_index]
-        return {
-            "displacement": self.u,
-            "velocity": self.v,
-            "acceleration": self.a,
-            "multiplier": self.multiplier,
-        }
-
-    def describe(self) -> dict[str, Any]:
-        """What a checkpoint shares with the stepper that reloads it
-        (:func:`~nitsche_dolfinx.steppers.base.checkpoint_description`)."""
-        return checkpoint_description(self)
+        return {**self._state_functions(), "multiplier": self.multiplier}
 
     def restore(self, t: float, step_index: int, saved: dict[str, Any]) -> None:
         """Move to a loaded time level; the multiplier becomes the next step's guess."""
         self.x.x.array[self._lambda_index] = self.multiplier.x.array
-        self._restore_levels(t, step_index, saved)
-        self.newton_iterations = int(saved.get("newton_iterations", 0))
-        self.step_seconds = 0.0
-        self.problem.set_time(t)
+        super().restore(t, step_index, saved)

@@ -29,11 +29,13 @@ E_Theta^{n+1} - E_Theta^n = W - D (+ the loads' work) to the solver's tolerance.
 
 from __future__ import annotations
 
+from typing import Any
+
 from dolfinx import fem
 
 from ..contact.nitsche import PenaltyContact, hybrid_contact_force, positive_part
 from ..output.probes import assemble_global
-from .schemes import HybridScheme
+from .parts import StepEnds, StepPart
 
 __all__ = ["ObstacleWork"]
 
@@ -55,15 +57,16 @@ def _turned_normal(contact, u_old, u_new, hybrid: bool):
     )
 
 
-class ObstacleWork:
+class ObstacleWork(StepPart):
     """The work of the moving obstacles and the contact dissipation over a step, summed
-    since t = 0.
+    since t = 0: a part of the steps (:class:`~nitsche_dolfinx.steppers.parts.StepPart`).
 
     Args:
         problem: The :class:`~nitsche_dolfinx.model.problem.ContactProblem`.
-        scheme: Its time scheme.
-        u_old: A Function holding u^n when :meth:`step` is called.
-        u_new: A Function holding u^{n+1} then.
+        midpoint: Whether the scheme's forces are those of the step's middle
+            (:attr:`~nitsche_dolfinx.steppers.schemes.TimeScheme.midpoint`).
+        state: The stepper's displacement, u^n when :meth:`step` is called, or u^{n+1}
+            with ``state_is_new``; the other level is copied into a Function of its own.
 
     Attributes:
         work: The work of the moving obstacles since t = 0 (``obstacle_work``).
@@ -71,8 +74,10 @@ class ObstacleWork:
             of every obstacle's (contact pairs left out).
     """
 
-    def __init__(self, problem, scheme, u_old: fem.Function, u_new: fem.Function):
-        hybrid = isinstance(scheme, HybridScheme)
+    def __init__(self, problem, midpoint: bool, state: fem.Function, state_is_new: bool = False):
+        hybrid = midpoint
+        self._other, self._state_is_new = fem.Function(problem.V), state_is_new
+        u_old, u_new = (self._other, state) if state_is_new else (state, self._other)
         work, dissipation = 0, 0
         pairs = problem.pairs  # their partners are not those of u_old and u_new: left out
         for contact in (c for c in problem.contacts if c not in pairs):
@@ -99,22 +104,33 @@ class ObstacleWork:
         self._comm = problem.mesh.comm
         self.work, self.dissipation = 0.0, 0.0
 
-    def step(self) -> None:
-        """Add the step's work and dissipation (u_old and u_new hold u^n and u^{n+1}, the
-        obstacles are at the step's levels)."""
+    @property
+    def dissipated(self) -> float:
+        """The contact dissipation since t = 0."""
+        return self.dissipation
+
+    def step(self, ends: StepEnds) -> None:
+        """Add the step's work and dissipation (the obstacles are at the step's levels)."""
+        self._other.x.array[:] = ends.u if self._state_is_new else ends.u1
         if self._forms[0] is not None:
             self.work += assemble_global(self._forms[0], self._comm)
         self.dissipation += assemble_global(self._forms[1], self._comm)
 
-    def values(self) -> dict[str, float]:
+    def columns(self) -> dict[str, float]:
         """The history columns."""
         return {"obstacle_work": self.work, "contact_dissipation": self.dissipation}
 
     def saved(self) -> dict[str, float]:
         """What a checkpoint keeps (the sums since t = 0)."""
-        return self.values()
+        return self.columns()
 
-    def restore(self, saved: dict) -> None:
+    def running(self) -> dict[str, float]:
+        return self.saved()
+
+    def put_back(self, running: dict[str, float]) -> None:
+        self.restore(running)
+
+    def restore(self, saved: dict[str, Any]) -> None:
         """The sums of a loaded checkpoint (0 for a checkpoint without them)."""
         self.work = float(saved.get("obstacle_work", 0.0))
         self.dissipation = float(saved.get("contact_dissipation", 0.0))

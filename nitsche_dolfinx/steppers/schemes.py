@@ -81,6 +81,10 @@ class TimeScheme:
     name = "scheme"
     #: Whether the scheme is stepped without a solve (:class:`VerletScheme`).
     explicit = False
+    #: Whether the step's equation holds at the step's middle t^{n+1/2}, so that the forces
+    #: its energy identity sees are those of the middle (:class:`HybridScheme`), not the
+    #: trapezoid of the two levels' (docs/method.md section 13).
+    midpoint = False
     #: The constructor's parameters (the keys :func:`make_scheme` passes): their kind,
     #: default and meaning, for ``[scheme]`` in TOML and the demos' flags.
     parameters: dict[str, Key] = {}
@@ -195,6 +199,7 @@ class HybridScheme(TimeScheme):
     """
 
     name = "hybrid"
+    midpoint = True
 
     def kinematics(self, u, v, a, w, dt):
         u1 = u + dt * v + dt**2 / 2 * w

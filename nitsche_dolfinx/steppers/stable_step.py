@@ -12,11 +12,19 @@ from petsc4py import PETSc
 
 from ..assembly.pair_coupling import add_partner_terms
 from ..common import compat
+from ..common.parameters import ParameterError, TimeStepping
 from ..contact.coercivity import constant_value
 from ..model.problem import ContactProblem
 from ..output.mass_moments import assembled_matrix
+from ..physics.damping import damped_stable_step
 
-__all__ = ["largest_eigenvalue", "round_down", "stable_step"]
+__all__ = [
+    "damped_step",
+    "largest_eigenvalue",
+    "resolve_step",
+    "round_down",
+    "stable_step",
+]
 
 
 def stable_step(problem: ContactProblem, affine: PETSc.Mat, mass) -> float:
@@ -28,6 +36,35 @@ def stable_step(problem: ContactProblem, affine: PETSc.Mat, mass) -> float:
     if any(constant_value(c.nitsche_theta) != 1.0 for c in problem.contacts):
         largest = max(largest, largest_eigenvalue(problem, affine, mass, with_contact=False))
     return float(2.0 / np.sqrt(largest))
+
+
+def damped_step(problem: ContactProblem, affine: PETSc.Mat, mass, stiffness: PETSc.Mat) -> float:
+    """The estimated stable step (:func:`stable_step`); with stiffness damping beta > 0,
+    shrunk by :func:`~nitsche_dolfinx.physics.damping.damped_stable_step` with the bulk's
+    own largest eigenvalue (``stiffness``, docs/method.md section 14)."""
+    stable = stable_step(problem, affine, mass)
+    beta = 0.0 if problem.damping is None else problem.damping.values[1]
+    if beta == 0.0:
+        return stable
+    bulk = largest_eigenvalue(problem, stiffness, mass, with_contact=False)
+    return damped_stable_step(4.0 / stable**2, bulk, beta)
+
+
+def resolve_step(scheme, stable: float, time_stepping: TimeStepping) -> float:
+    """The time step of ``scheme`` (a :class:`~nitsche_dolfinx.steppers.schemes.
+    VerletScheme`): ``"auto"`` is its safety share of the ``stable`` step; a given one
+    above the stable step is refused unless the scheme allows it."""
+    dt = time_stepping.dt
+    if time_stepping.automatic:
+        return round_down(scheme.safety * stable)
+    if dt > stable and not scheme.force_dt:
+        raise ParameterError(
+            "dt", dt,
+            f"above the verlet scheme's stable step {stable:.6g} (estimated for this "
+            f"mesh, mass, gamma0 and Theta); take dt='auto' ({scheme.safety:g} of it) or "
+            "insist on it (force_dt, the flag --force-dt)",
+        )  # fmt: skip
+    return float(dt)
 
 
 def round_down(value: float, digits: int = 3) -> float:

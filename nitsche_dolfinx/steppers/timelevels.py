@@ -24,7 +24,7 @@ _SNAP = 1e-9
 
 
 class TimeLevels:
-    """The time of a stepper and the size of its steps (a base of both steppers).
+    """The time of a stepper and the size of its steps (a base of every stepper).
 
     Attributes:
         dt: The nominal step tau.
