@@ -31,14 +31,6 @@ class ProblemData:
         self.initial_displacement = None
         self.initial_velocity = None
 
-    def _init_time(self) -> None:
-        """The time t = 0 and the position of the data in UFL."""
-        #: The time t of the problem's data in UFL, a ``fem.Constant`` that the steppers move
-        #: (:meth:`set_time`).
-        self.t = fem.Constant(self.mesh, 0.0)
-        #: The position x in UFL (``ufl.SpatialCoordinate``), for data in space.
-        self.x = ufl.SpatialCoordinate(self.mesh)
-
     def _value(self, value, shape: tuple[int, ...], what: str) -> ProblemValue:
         """A value of the problem's data
         (:class:`~nitsche_dolfinx.physics.problem_values.ProblemValue`):

@@ -199,7 +199,11 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         self._init_data()
         #: Rayleigh damping (:meth:`set_damping`), None without it (no term in the forms).
         self.damping: RayleighDamping | None = None
-        self._init_time()
+        #: The time t of the problem's data in UFL, a ``fem.Constant`` that the steppers move
+        #: (:meth:`set_time`).
+        self.t = fem.Constant(mesh, 0.0)
+        #: The position x in UFL (``ufl.SpatialCoordinate``), for data in space.
+        self.x = ufl.SpatialCoordinate(mesh)
 
     def _init_material(self, material, regions: bool, nitsche: NitscheParameters) -> None:
         """The material, or a material per cell tag (``regions``), as runtime constants."""
