@@ -10,7 +10,7 @@ Two measurements:
   the repeats. Per run: the DOFs, the median wall time of a contact step and of a free
   step, the Newton iterations per contact step, the pairings made; per mesh size, the
   median over the repeats of the ratio of the contact steps' medians (followed / once).
-- ``search``: the time of one pairing (:meth:`~nitsche_dolfinx.contact.pairs.Pairing.pair`, in
+- ``search``: the time of one pairing (:meth:`~nitsche_dolfinx.contact.pairing.Pairing.pair`, in
   the reference configuration, the median of ``--repeat`` calls) against the number of
   slave nodes, for the balls (``--dim 3``; disks: 2) at several mesh sizes, with the
   exponent of a fit time ~ n^p (n log n gives p slightly above 1).

@@ -1,8 +1,9 @@
 """The contact terms in UFL (docs/method.md sections 2, 9, 15): Nitsche and penalty contact
 with a rigid obstacle (`nitsche`), the contact quantities behind the schemes (`terms`),
-contact between bodies (`pairs`), finite-strain contact (`finite`), the coercivity bound of
-Theta > 0 (`coercivity`), the explicit steps' contact force at quadrature points
-(`quadrature`).
+contact between bodies (`pairs`; their pairing: `pairing`, on the master surface of
+`master_surface`, its closest points by `projection`), finite-strain contact (`finite`), the
+coercivity bound of Theta > 0 (`coercivity`), the explicit steps' contact force at
+quadrature points (`quadrature`).
 """
 
 from .coercivity import coercivity_ratio, constant_value
