@@ -29,7 +29,7 @@
 # - pair two bodies by closest points that follow the sliding
 #   (`nitsche_dolfinx.cases.two_bodies.two_bodies_problem` with `along_axis=False` and
 #   `follow=True`; `--no-follow` pairs them once, in the reference configuration);
-# - give each body its own velocity (`twobody.body_velocities`);
+# - give each body its own velocity (`cases.two_bodies.body_velocities`);
 # - follow the energy: a new pairing changes the contact terms of $E_\Theta$ at the
 #   same state, by the history column `pairing_energy` (their sum since $t = 0$). With
 #   the hybrid scheme and $\Theta = 1$, $E_\Theta - $ `pairing_energy` never rises;

@@ -137,9 +137,9 @@ class Simulation:
 
     def add_probe(self, name: str, probe: Callable[[], float]) -> None:
         """Add a history column computed by ``probe()`` at every time level (the same
-        number on every rank): a :class:`~nitsche_dolfinx.output.diagnostics.BoundaryAverage`
+        number on every rank): a :class:`~nitsche_dolfinx.output.probes.BoundaryAverage`
         (a mean over a boundary part or the body), a
-        :class:`~nitsche_dolfinx.output.diagnostics.PointValue` (a Function at a point), or any
+        :class:`~nitsche_dolfinx.output.probes.PointValue` (a Function at a point), or any
         function. Name it in ``run(columns=...)`` to write it."""
         self._probes[name] = probe
 

@@ -173,7 +173,7 @@ def test_backward_euler_and_newmark_step_the_pair(scheme):
 def test_the_full_jacobian_with_the_coupling_is_the_split_one_on_linear_pairs():
     """``reuse_jacobian=False`` with contact pairs: the full Jacobian of every iteration
     plus the pairs' coupling (systems.FormSystem, as at finite strain) solves the linear
-    disks as the split Jacobian does (systems.AffineSystem): the same history to 1e-9 of
+    disks as the split Jacobian does (affine_system.AffineSystem): the same history to 1e-9 of
     each column's scale, as two computations on any processor (measured 1e-13)."""
     split = run(disks_problem("linear"), 3.0)
     full = run(disks_problem("linear"), 3.0, reuse_jacobian=False)

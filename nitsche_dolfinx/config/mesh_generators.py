@@ -131,7 +131,8 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
         "facets 1 lower hemisphere, 2 upper hemisphere",
     ),
     "two_bars": MeshGenerator(
-        "two bars of length 1, (gap, 1 + gap) and (-1, 0), nx cells each (twobody.two_bars_mesh)",
+        "two bars of length 1, (gap, 1 + gap) and (-1, 0), nx cells each "
+        "(meshing.two_bodies.two_bars_mesh)",
         {"nx": 100, "gap": 0.0},
         _two_bars,
         1,
@@ -141,7 +142,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
     "mirrored_bodies": MeshGenerator(
         "the disk (dim = 2) or ball (dim = 3) of the impact test, lowest point gap/2 above "
         "the plane x_dim = 0, and its mirror image; offset: the two that far apart along x "
-        "(twobody.mirrored_bodies_mesh)",
+        "(meshing.two_bodies.mirrored_bodies_mesh)",
         {"dim": 2, "mesh_size": 8.0, "order": 2, "gap": 0.0, "offset": 0.0},
         _mirrored_bodies,
         None,
@@ -150,7 +151,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
     ),
     "ball_on_slab": MeshGenerator(
         "a ball (dim = 3) or disk (dim = 2) gap above a slab (-width/2, width/2)^(dim-1) x "
-        "(0, thickness) (twobody.ball_on_slab_mesh)",
+        "(0, thickness) (meshing.two_bodies.ball_on_slab_mesh)",
         {
             "dim": 3,
             "mesh_size": 8.0,
@@ -166,7 +167,7 @@ MESH_GENERATORS: dict[str, MeshGenerator] = {
     "block_on_slab": MeshGenerator(
         "a block (-width/2, width/2) x (gap, gap + height) above a slab (slab_start, "
         "slab_start + slab_length) x (-thickness, 0), structured triangles "
-        "(twobody.block_on_slab_mesh)",
+        "(meshing.two_bodies.block_on_slab_mesh)",
         {
             "width": 2.0,
             "height": 1.0,

@@ -97,7 +97,7 @@ class PetscSNES:
 
     Args:
         system: The system (:class:`~nitsche_dolfinx.assembly.systems.FormSystem` or
-            :class:`~nitsche_dolfinx.assembly.systems.AffineSystem`).
+            :class:`~nitsche_dolfinx.assembly.affine_system.AffineSystem`).
         settings: The :class:`SolverSettings`.
         after_jacobian: Called as ``after_jacobian(ksp, changed, active)`` after each
             Jacobian evaluation: whether it changed, and whether the system's facet terms

@@ -78,9 +78,9 @@ class SNESSolver:
 
     ``SNESSolver(F, u, bcs)`` solves a problem given as UFL forms
     (:class:`~nitsche_dolfinx.assembly.systems.FormSystem`); :meth:`for_system` a step's system
-    (:class:`~nitsche_dolfinx.assembly.systems.AffineSystem`): its constant Jacobian assembled once,
-    the contact part when it changes, the Jacobian left untouched when it did not, so that
-    PETSc reuses its factorisation.
+    (:class:`~nitsche_dolfinx.assembly.affine_system.AffineSystem`): its constant Jacobian
+    assembled once, the contact part when it changes, the Jacobian left untouched when it
+    did not, so that PETSc reuses its factorisation.
 
     Args:
         F: The residual, a UFL form linear in the test function.

@@ -1,6 +1,6 @@
 """The solver of an implicit step's equation F(w) = 0 (docs/method.md section 8): the SNES
 of :class:`~nitsche_dolfinx.steppers.implicit.NitscheStepper`, on the affine split of the
-bulk (:class:`~nitsche_dolfinx.assembly.systems.AffineSystem`) or assembled in full, with
+bulk (:class:`~nitsche_dolfinx.assembly.affine_system.AffineSystem`) or assembled in full, with
 the diagonal mass and damping and the coupling of contact pairs.
 """
 
@@ -34,9 +34,10 @@ def step_solver(
         state: ``(w, u, v, a, dt)``: the unknown, the state at t^n, the step (a Constant).
         bcs: The Dirichlet conditions on ``w``.
         settings: The solver's :class:`~nitsche_dolfinx.solvers.petsc_snes.SolverSettings`.
-        reuse_jacobian: Solve the :class:`~nitsche_dolfinx.assembly.systems.AffineSystem` (the bulk
-            is linear elastodynamics: its cell terms are affine in the unknown, and only
-            the contact terms on Gamma_C change the Jacobian); False: assemble every
+        reuse_jacobian: Solve the
+            :class:`~nitsche_dolfinx.assembly.affine_system.AffineSystem` (the bulk is
+            linear elastodynamics: its cell terms are affine in the unknown, and only the
+            contact terms on Gamma_C change the Jacobian); False: assemble every
             Jacobian in full (with contact pairs, their coupling added), as at finite
             strains.
         model: The model whose terms F holds (``problem``, or its friction law guarded by
