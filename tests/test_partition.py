@@ -180,3 +180,17 @@ def test_gmsh_leaves_the_sigint_handler_alone():
         assert signal.getsignal(signal.SIGINT) is handler
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.mpi
+def test_graph_partition_is_the_same_every_time():
+    """dolfinx's own partition (a .msh file read without contact tags) gives the same
+    cells and node order each time on the same ranks: the package runs PT-Scotch with one
+    thread, whose threads otherwise change it from one run to the next (four node orders
+    in five runs of the ring on 2 ranks). Bitwise: the same partition of the same file."""
+    import nitsche_dolfinx  # noqa: F401  (sets the thread count on import)
+
+    assert os.environ.get("SCOTCH_PTHREAD_NUMBER") == "1"
+    ring = os.path.join(REPO, "meshes", "ring_2d.msh")
+    first, *others = (load_mesh(ring)[0].geometry.x.copy() for _ in range(3))
+    assert all(np.array_equal(first, other) for other in others)

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import inspect
+import os
 import signal
 import threading
 
@@ -26,6 +27,13 @@ __all__ = [
     "start_gmsh",
     "write_meshtags",
 ]
+
+# dolfinx partitions a mesh with PT-Scotch, whose threads (as many as the machine has
+# cores) make the partition, and so the nodes' order and every sum over them, change from
+# one mpirun to the next. One thread makes it the same on the same ranks (docs/method.md
+# section 8, "Reproducible partitions"); a value the user set is kept. Scotch reads it
+# when it partitions, so setting it here, after dolfinx is loaded, is in time.
+os.environ.setdefault("SCOTCH_PTHREAD_NUMBER", "1")
 
 
 def gmsh_model_to_mesh(model, comm, rank: int, gdim: int, partitioner=None):
