@@ -1,8 +1,18 @@
 """MPI hygiene as in dolfinx's own conftest: collect garbage and synchronise after each test,
-and give all ranks of a test the same temporary folder."""
+and give all ranks of a test the same temporary folder; one BLAS thread unless the user
+chose a number."""
+
+import os
+
+# One BLAS thread, as `make test` sets, before numpy loads: the runs the tests start
+# (tests/runs.py) inherit the same number, and a check that a restarted run, started in
+# its own process, writes the same fields as this process's run to the bit needs the same
+# operations in both. OpenBLAS splits a product over its threads, and another number of
+# threads sums in another order (8e-20 relative in a restart's fields with two threads
+# here, one there).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import gc
-import os
 import shutil
 import tempfile
 

@@ -19,7 +19,9 @@ DISK = ["demos/disk_2d.py", "--no-compare", "--no-plot", "--mesh-size", "8"]
 def environment() -> dict:
     env = {**os.environ, "PYTHONPATH": REPO + os.pathsep + os.environ.get("PYTHONPATH", "")}
     env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    env.update(OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    # the BLAS threads of the test's own process (tests/conftest.py: one by default)
+    env.update(OMPI_MCA_rmaps_base_oversubscribe="1")
+    env.setdefault("OPENBLAS_NUM_THREADS", "1")
     env.update(MPLBACKEND="Agg")
     return env
 
