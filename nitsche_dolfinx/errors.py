@@ -33,7 +33,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from .agreement import ERROR_AGREEMENT_SECONDS, FailureChannel
-from .parameter_table import by_name
+from .keys import cut
+from .parameter_table import by_name, in_words_of
 from .parameters import ParameterError
 from .signals import RunInterrupted
 from .solver import SolverError
@@ -100,9 +101,18 @@ def under_its_flag(error: ParameterError, parser: argparse.ArgumentParser) -> Pa
             found = action.dest == error.name and bool(action.option_strings)
         if found:
             value = error.value
-            shown = f"{value:g}" if isinstance(value, float) else str(value)
-            return error.named(f"{action.option_strings[0]} {shown}")
-    return error
+            shown = f"{value:g}" if isinstance(value, float) else cut(str(value))
+            return _in_flag_words(error).named(f"{action.option_strings[0]} {shown}")
+    return _in_flag_words(error)
+
+
+def _in_flag_words(error: ParameterError) -> ParameterError:
+    """The error with the other run parameters its requirement names in the API's words
+    (``degree=2``) named by their flags (``--degree 2``)."""
+    requirement = in_words_of(error.requirement, "flag")
+    renamed = ParameterError(error.name, error.value, requirement, error.label)
+    renamed.explicit = error.explicit
+    return renamed
 
 
 def exit_status_and_message(error: BaseException) -> tuple[int, str]:

@@ -54,6 +54,7 @@ __all__ = [
     "MAX_TABLE_POINTS",
     "ExpressionTree",
     "check_table",
+    "evaluate",
     "has_text",
     "expression",
     "parse_expression",
@@ -83,6 +84,7 @@ class _Function:
     arity: int | None  # the number of arguments; None: two or more, folded
     number: Callable  # on floats (constant folding)
     form: Callable  # on UFL
+    array: Callable  # on numpy arrays (the values at points: evaluate)
 
 
 def _fold(pair: Callable) -> Callable:
@@ -91,15 +93,15 @@ def _fold(pair: Callable) -> Callable:
 
 #: The functions an expression may call.
 FUNCTIONS = {
-    "sin": _Function(1, math.sin, ufl.sin),
-    "cos": _Function(1, math.cos, ufl.cos),
-    "tan": _Function(1, math.tan, ufl.tan),
-    "exp": _Function(1, math.exp, ufl.exp),
-    "log": _Function(1, math.log, ufl.ln),
-    "sqrt": _Function(1, math.sqrt, ufl.sqrt),
-    "abs": _Function(1, abs, abs),
-    "min": _Function(None, min, _fold(ufl.min_value)),
-    "max": _Function(None, max, _fold(ufl.max_value)),
+    "sin": _Function(1, math.sin, ufl.sin, np.sin),
+    "cos": _Function(1, math.cos, ufl.cos, np.cos),
+    "tan": _Function(1, math.tan, ufl.tan, np.tan),
+    "exp": _Function(1, math.exp, ufl.exp, np.exp),
+    "log": _Function(1, math.log, ufl.ln, np.log),
+    "sqrt": _Function(1, math.sqrt, ufl.sqrt, np.sqrt),
+    "abs": _Function(1, abs, abs, np.abs),
+    "min": _Function(None, min, _fold(ufl.min_value), _fold(np.minimum)),
+    "max": _Function(None, max, _fold(ufl.max_value), _fold(np.maximum)),
 }
 
 _ARITHMETIC = {
@@ -254,6 +256,27 @@ def to_ufl(tree: ExpressionTree, x, t=None):
     names = _names(tree.gdim, [x[i] for i in range(tree.gdim)], t)
     builder = _Builder(tree.text, tree._source, tree.name, names)
     return ufl.as_ufl(builder.value(tree._tree.body))
+
+
+def evaluate(tree: ExpressionTree, points: np.ndarray, t: float | None = None) -> np.ndarray:
+    """The values of a checked expression at ``points`` (shape (gdim or 3, N)) and time
+    ``t``, in floating point as the compiled form computes them: nan or inf where it is
+    undefined or infinite there (``1/t`` at t = 0), no error. A check of the data before
+    a run (:class:`~nitsche_dolfinx.problem_values.ProblemValue`), not a way to compute them.
+
+    Returns:
+        An array of N values.
+    """
+    points = np.asarray(points, dtype=float)
+    count = points.shape[1]
+    if t is None and tree.uses_time:
+        raise ParameterError(tree.name, tree.text, "'t' (time) is not available here")
+    time = np.full(count, 0.0 if t is None else float(t))
+    names = _names(tree.gdim, [points[i] for i in range(tree.gdim)], time)
+    builder = _Builder(tree.text, tree._source, tree.name, names, numeric=True)
+    with np.errstate(all="ignore"):
+        value = builder.value(tree._tree.body)
+        return np.broadcast_to(np.asarray(value, dtype=float), (count,)).copy()
 
 
 def expression(text: str | float, mesh, t=None, *, name: str):
@@ -496,8 +519,9 @@ class _Builder:
     from ``names``: floats fold, :data:`_RUNTIME` stands for x and t when checking, UFL
     objects when building. Conditions are Python bools when constant."""
 
-    def __init__(self, text: str, source: str, name: str, names: dict):
+    def __init__(self, text: str, source: str, name: str, names: dict, numeric: bool = False):
         self.text, self.source, self.name, self.names = text, source, name, names
+        self.numeric = numeric  # numpy arrays for x and t (evaluate), not UFL
         self.used: set[str] = set()
 
     def fail(self, requirement: str):
@@ -613,7 +637,7 @@ class _Builder:
             return self._folded(function.number, args, node)
         if _runtime(*args):
             return _RUNTIME
-        return function.form(*args)
+        return function.array(*args) if self.numeric else function.form(*args)
 
     def _function(self, node: ast.Call) -> _Function:
         listed = ", ".join(FUNCTIONS)
@@ -640,6 +664,8 @@ class _Builder:
             return chosen if condition else other
         if _runtime(condition, chosen, other):
             return _RUNTIME
+        if self.numeric:
+            return np.where(condition, chosen, other)
         return ufl.conditional(condition, chosen, other)
 
     def condition(self, node: ast.AST):
@@ -663,6 +689,8 @@ def _compare(comparison: tuple, left, right):
     _, number, form = comparison
     if isinstance(left, float) and isinstance(right, float):
         return number(left, right)
+    if isinstance(left, np.ndarray) or isinstance(right, np.ndarray):  # evaluate's
+        return number(left, right)
     if _runtime(left, right):
         return _RUNTIME
     return form(left, right)
@@ -672,6 +700,8 @@ def _and(left, right):
     if isinstance(left, bool) or isinstance(right, bool):
         constant, other = (left, right) if isinstance(left, bool) else (right, left)
         return other if constant else False
+    if isinstance(left, np.ndarray):  # evaluate's
+        return np.logical_and(left, right)
     return _RUNTIME if _runtime(left, right) else ufl.And(left, right)
 
 
@@ -679,4 +709,6 @@ def _or(left, right):
     if isinstance(left, bool) or isinstance(right, bool):
         constant, other = (left, right) if isinstance(left, bool) else (right, left)
         return True if constant else other
+    if isinstance(left, np.ndarray):  # evaluate's
+        return np.logical_or(left, right)
     return _RUNTIME if _runtime(left, right) else ufl.Or(left, right)

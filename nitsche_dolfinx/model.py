@@ -20,6 +20,7 @@ Example (the 1D bar of docs/method.md section 5)::
 
 from __future__ import annotations
 
+import dolfinx.mesh
 import numpy as np
 import ufl
 from dolfinx import fem
@@ -43,7 +44,7 @@ from .parameters import (
     require,
     require_choice,
 )
-from .problem_values import ProblemValue, as_array
+from .problem_values import ProblemValue, as_array, check_finite_texts
 from .regions import CellwiseMaterial
 
 __all__ = ["ContactProblem"]
@@ -62,7 +63,10 @@ class ContactProblem:
             :class:`~nitsche_dolfinx.regions.CellwiseMaterial`).
         degree: Degree of the Lagrange displacement space (1 or 2).
         gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact), or
-            gamma0 h_T / E with ``gamma0_scaling="E"``.
+            gamma0 h_T / E with ``gamma0_scaling="E"``. Default (None): gamma0 E = 1e-3
+            whatever the units (:data:`~nitsche_dolfinx.parameters.DEFAULT_GAMMA0_E`):
+            gamma0 = 1e-3 / E, E the largest Young modulus of the materials, or 1e-3 with
+            ``gamma0_scaling="E"`` (docs/method.md section 10).
         nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
         friction: Coulomb coefficient mu_f >= 0, or None (the default) for frictionless
             contact. With a coefficient, the frictional Nitsche term of docs/method.md section 2 is
@@ -104,7 +108,7 @@ class ContactProblem:
         facet_tags,
         material: Material,
         degree: int = 1,
-        gamma0: float = 1.0,
+        gamma0: float | None = None,
         nitsche_theta: float = 1.0,
         friction: float | None = None,
         quadrature_degree: int | None = None,
@@ -124,6 +128,8 @@ class ContactProblem:
         regions = isinstance(material, dict)
         #: Every material of the problem (one, or one per cell tag).
         self.materials = list(material.values()) if regions else [material]
+        moduli = [each.E for each in self.materials if isinstance(each, Material)]
+        nitsche = nitsche.resolved(max(moduli, default=1.0))  # the default gamma0: of E
         for each in self.materials:
             if isinstance(each, Material):
                 nitsche.check_scale(each.E)
@@ -146,7 +152,7 @@ class ContactProblem:
         #: docs/method.md section 15), None for linear elasticity.
         self.law = None if regions else material.strain_energy
         if self.law is not None:
-            _check_finite(mesh, nitsche)
+            _check_finite(mesh, nitsche, material.law)
         for each in self.materials if regions else []:
             require(
                 not each.finite, "law", each.law,
@@ -160,7 +166,7 @@ class ContactProblem:
         self.mass_matrix = MassMatrix(
             self.mass, self.V, self.material_constants.rho, self._contact_facets
         )
-        self.gamma0 = fem.Constant(mesh, float(gamma0))
+        self.gamma0 = fem.Constant(mesh, float(nitsche.gamma0))
         self.nitsche_theta = fem.Constant(mesh, float(nitsche_theta))
         self.friction = None if friction is None else fem.Constant(mesh, float(friction))
         self.h = cell_diameter(mesh)
@@ -184,6 +190,7 @@ class ContactProblem:
         self._tractions: list[tuple[int, ProblemValue]] = []
         self.initial_displacement = None
         self.initial_velocity = None
+        self._node_coordinates = None  # of V's nodes, when a check of the data needs them
         #: Rayleigh damping (:meth:`set_damping`), None without it (no term in the forms).
         self.damping: RayleighDamping | None = None
         #: The time t of the problem's data in UFL, a ``fem.Constant`` that the steppers move
@@ -236,7 +243,7 @@ class ContactProblem:
         returning one. ``add_dirichlet(tag, 0.0, component=0)`` is a symmetry plane x =
         const, or a roller on it.
         """
-        self.facets(tag)
+        facets = self.facets(tag)
         if component is None or self.gdim == 1:
             require(
                 component in (None, 0),
@@ -245,6 +252,7 @@ class ContactProblem:
                 "the displacement of a 1D mesh has one component, 0",
             )
             value = self._value(value, (self.gdim,), "Dirichlet value")
+            value.check_finite(lambda: self._nodes(facets), self.mesh.comm)
             self.dirichlet.append(DirichletCondition(tag, value))
             return
         require(
@@ -256,6 +264,7 @@ class ContactProblem:
             f"the displacement has the components 0 to {self.gdim - 1}",
         )
         value = self._value(value, (1,), "Dirichlet value of a component")
+        value.check_finite(lambda: self._nodes(facets), self.mesh.comm)
         self.dirichlet.append(DirichletCondition(tag, value, int(component)))
 
     def add_body(self, tag: int, cell_tags=None) -> Body:
@@ -282,13 +291,18 @@ class ContactProblem:
         """Add a volume force f: a vector, a function of t returning one, or a value in space
         and time (a UFL vector of :attr:`x` and :attr:`t`, or a list of numbers and
         expression texts such as ``[0, "-9.81 * (1 + x)"]``: :meth:`_value`)."""
-        self._body_forces.append(self._value(value, (self.gdim,), "body force"))
+        force = self._value(value, (self.gdim,), "body force")
+        force.check_finite(lambda: self._midpoints(self.mesh.topology.dim), self.mesh.comm)
+        self._body_forces.append(force)
 
     def add_traction(self, tag: int, value) -> None:
         """Add a Neumann traction g_N on the facets ``tag``: a vector, a function of t, or a
         value in space and time (as for :meth:`add_body_force`)."""
-        self.facets(tag)
-        self._tractions.append((tag, self._value(value, (self.gdim,), "traction")))
+        facets = self.facets(tag)
+        traction = self._value(value, (self.gdim,), "traction")
+        fdim = self.mesh.topology.dim - 1
+        traction.check_finite(lambda: self._midpoints(fdim, facets), self.mesh.comm)
+        self._tractions.append((tag, traction))
 
     def add_obstacle(self, obstacle, tag: int) -> NitscheContact:
         """Add unilateral contact of the facets ``tag`` (Gamma_C) with a rigid obstacle."""
@@ -496,16 +510,42 @@ class ContactProblem:
         texts of x, y, z (:mod:`~nitsche_dolfinx.expressions`; no t), e.g.
         ``["0.1 * sin(pi * x)", 0]``.
         """
-        self.initial_displacement = self._field(displacement, "initial displacement")
-        self.initial_velocity = self._field(velocity, "initial velocity")
+        self.initial_displacement = self._field(displacement, "initial displacement",
+                                                "displacement")  # fmt: skip
+        self.initial_velocity = self._field(velocity, "initial velocity", "velocity")
 
-    def _field(self, value, what: str):
+    def _field(self, value, what: str, name: str):
         """An initial field as :func:`~nitsche_dolfinx.stepping.interpolate_initial` takes
-        it: expression texts made UFL of x (refused with t)."""
+        it: expression texts made UFL of x (refused with t, or not finite at a node)."""
         if not has_text(value):
             return value
         texts = [value] if isinstance(value, str) else list(value)
-        return vector_expression(texts, self.mesh, None, name=what)
+        field = vector_expression(texts, self.mesh, None, name=what)
+        check_finite_texts(texts, self.gdim, lambda: self._nodes(), self.mesh.comm, None,
+                           name, value, what)  # fmt: skip
+        return field
+
+    def _nodes(self, facets=None) -> np.ndarray:
+        """The coordinates (shape (gdim, N)) of the nodes of the displacement space on this
+        rank, or of those of ``facets``: where Dirichlet values and initial fields are
+        interpolated."""
+        if self._node_coordinates is None:
+            self._node_coordinates = compat.node_coordinates(self.V)
+        nodes = self._node_coordinates
+        if facets is not None:
+            fdim = self.mesh.topology.dim - 1
+            nodes = nodes[fem.locate_dofs_topological(self.V, fdim, facets)]
+        return nodes.T
+
+    def _midpoints(self, dim: int, entities=None) -> np.ndarray:
+        """The midpoints (shape (3, N)) of this rank's cells (``dim`` the mesh's) or of the
+        ``entities`` of dimension ``dim``: points where the loads are integrated, checked
+        before a run."""
+        if entities is None:
+            entities = np.arange(self.mesh.topology.index_map(dim).size_local, dtype=np.int32)
+        if len(entities) == 0:
+            return np.zeros((3, 0))
+        return dolfinx.mesh.compute_midpoints(self.mesh, dim, np.asarray(entities, np.int32)).T
 
     # -- the terms of the weak form, used by the time schemes --------------------------
 
@@ -683,10 +723,10 @@ class ContactProblem:
             traction.set_time(t)
 
 
-def _check_finite(mesh, nitsche: NitscheParameters) -> None:
-    """Refuse what a hyperelastic material does not take (yet)."""
+def _check_finite(mesh, nitsche: NitscheParameters, law) -> None:
+    """Refuse what a hyperelastic material (of ``law``) does not take (yet)."""
     require(
-        mesh.geometry.dim > 1, "law", "hyperelastic",
+        mesh.geometry.dim > 1, "law", law,
         "a hyperelastic material needs a 2D (plane strain) or 3D mesh",
     )  # fmt: skip
     require(

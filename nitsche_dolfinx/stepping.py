@@ -21,7 +21,7 @@ from . import compat
 from .damping import DiagonalDamping
 from .linear_solvers import LinearSolver
 from .model import ContactProblem
-from .parameters import ParameterError, require
+from .parameters import ParameterError
 from .problem_values import as_array
 from .solver import SNESSolver, SolverError
 
@@ -172,7 +172,10 @@ def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
     finite = target.function_space.mesh.comm.allreduce(
         bool(np.all(np.isfinite(target.x.array))), op=MPI.LAND
     )
-    require(finite, f"initial {target.name}", "NaN or inf", "the initial values must be finite")
+    if not finite:  # the value as given may be a function: not quoted
+        what = f"initial {target.name}"
+        raise ParameterError(what, None, "the initial values must be finite (nan or inf at a "
+                             "node)", label=what)  # fmt: skip
 
 
 def check_initial_gap(penetration: float, mesh) -> None:
