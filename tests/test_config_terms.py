@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 from nitsche_dolfinx import HybridScheme, Simulation, read_history
 from nitsche_dolfinx.cases import impact_problem
-from nitsche_dolfinx.cli import command as cli
+from nitsche_dolfinx.cli import main as cli
 from nitsche_dolfinx.config import ConfigError, build_simulation, history_columns, load_config
 from nitsche_dolfinx.meshing import DISK_CONTACT, DISK_FREE
 from nitsche_dolfinx.output import HISTORY_COLUMNS, PointValue

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from runs import ring_config
 
-from nitsche_dolfinx.cli import command as cli
+from nitsche_dolfinx.cli import main as cli
 from nitsche_dolfinx.config import (
     FACET_SELECTORS,
     SCHEMA,

@@ -16,7 +16,7 @@ import pytest
 from runs import REPO
 
 from nitsche_dolfinx import read_history
-from nitsche_dolfinx.cli import command as cli
+from nitsche_dolfinx.cli import main as cli
 
 DEMOS = os.path.join(REPO, "demos")
 

@@ -13,7 +13,7 @@ from runs import REPO
 import nitsche_dolfinx
 from nitsche_dolfinx import HybridScheme
 from nitsche_dolfinx.cases import bar_simulation
-from nitsche_dolfinx.cli import command as cli
+from nitsche_dolfinx.cli import main as cli
 from nitsche_dolfinx.output import Progress
 
 DEMOS = sorted(name for name in os.listdir(os.path.join(REPO, "demos")) if name.endswith(".py"))

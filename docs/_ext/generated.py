@@ -91,7 +91,7 @@ def modules_markdown() -> str:
             for module in modules
             if module == name or module.startswith(name + ".")
         ]
-        sections.append(f"### `{layer}`\n\n" + markdown_table(["module", "what it holds"], rows))
+        sections.append(f"## `{layer}`\n\n" + markdown_table(["module", "what it holds"], rows))
     return "\n\n".join(sections) + "\n"
 
 

@@ -21,6 +21,7 @@ __all__ = ["BLOWUP_FACTOR", "BLOWUP_WINDOW", "BlowUpWatch", "UnstableStep"]
 #: A blow-up: kinetic + elastic energy above this many times its largest value up to
 #: :data:`BLOWUP_WINDOW` steps before (an unstable explicit step grows geometrically).
 BLOWUP_FACTOR = 100.0
+#: How many steps back the largest energy of a blow-up's test is taken from.
 BLOWUP_WINDOW = 100
 
 
