@@ -67,6 +67,9 @@ HALF_DISK = """
     lmbda = 20.0
     mu = 20.0
 
+    [nitsche]
+    gamma0 = 1e-3                     # the API run's (impact_problem), not the default
+
     [scheme]
     dt = 0.25
     t_end = 12.0

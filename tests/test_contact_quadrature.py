@@ -104,7 +104,7 @@ def test_the_quadrature_force_on_quadrilaterals_and_hexahedra(cell, degree):
     bottom = np.sort(bottom).astype(np.int32)
     tags = dmesh.meshtags(mesh, tdim - 1, bottom, np.full(bottom.size, 1, dtype=np.int32))
     problem = ContactProblem(mesh, tags, Material(E=1.0, nu=0.3, rho=1.0), degree=degree,
-                             nitsche_theta=0.0)  # fmt: skip
+                             gamma0=1.0, nitsche_theta=0.0)  # fmt: skip
     problem.add_obstacle(SphereObstacle([0.5] * (tdim - 1) + [-3.0], 3.0), 1)
     assembled, quadrature = assembled_and_quadrature(problem, pressed(problem, 0.05))
     scale = assembled.norm(PETSc.NormType.INFINITY)

@@ -321,6 +321,10 @@ def _from_flags(cls, args: argparse.Namespace):
     return cls(**values)
 
 
-def check_output_folder(path: str, comm=MPI.COMM_WORLD) -> str:
-    """Create the output folder and check that it can be written (before computing)."""
-    return ensure_directory(path, comm)
+def check_output_folder(path: str, comm=MPI.COMM_WORLD, key: str = "--out") -> str:
+    """Create the output folder and check that it can be written (before computing); a
+    folder that cannot be is named with ``key``, what gave it (the flag, or a TOML key)."""
+    try:
+        return ensure_directory(path, comm)
+    except ValueError as error:
+        raise ValueError(f"{key}: {error}") from None

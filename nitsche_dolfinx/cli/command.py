@@ -122,10 +122,11 @@ def _run(args: argparse.Namespace, run_parser: argparse.ArgumentParser) -> int:
             )
         out = args.out or config["output"]["dir"]
         if not args.check:
-            check_output_folder(out, comm)
+            check_output_folder(out, comm, "--out" if args.out else f"{args.config}: [output] dir")
         simulation = build_simulation(
-            config, comm=comm, progress=not args.quiet, source=args.config
-        )
+            config, comm=comm, progress=not args.quiet, source=args.config,
+            petsc_flags=dict(args.petsc),
+        )  # fmt: skip
         if args.check:
             if comm.rank == 0:
                 print(f"{args.config}: valid")

@@ -32,10 +32,11 @@ import traceback
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from ..common.agreement import ERROR_AGREEMENT_SECONDS, FailureChannel
+from ..common.agreement import ERROR_AGREEMENT_SECONDS, FailureChannel, one_line
+from ..common.keys import cut
 from ..common.parameters import ParameterError
 from ..common.signals import RunInterrupted
-from ..config.parameter_table import by_name
+from ..config.parameter_table import by_name, in_words_of
 from ..solvers.solver import SolverError
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "exit_status_and_message", "one_line_errors"]
@@ -100,15 +101,24 @@ def under_its_flag(error: ParameterError, parser: argparse.ArgumentParser) -> Pa
             found = action.dest == error.name and bool(action.option_strings)
         if found:
             value = error.value
-            shown = f"{value:g}" if isinstance(value, float) else str(value)
-            return error.named(f"{action.option_strings[0]} {shown}")
-    return error
+            shown = f"{value:g}" if isinstance(value, float) else cut(str(value))
+            return _in_flag_words(error).named(f"{action.option_strings[0]} {shown}")
+    return _in_flag_words(error)
+
+
+def _in_flag_words(error: ParameterError) -> ParameterError:
+    """The error with the other run parameters its requirement names in the API's words
+    (``degree=2``) named by their flags (``--degree 2``)."""
+    requirement = in_words_of(error.requirement, "flag")
+    renamed = ParameterError(error.name, error.value, requirement, error.label)
+    renamed.explicit = error.explicit
+    return renamed
 
 
 def exit_status_and_message(error: BaseException) -> tuple[int, str]:
     """The exit status and the line (with a traceback for an unexpected error) for ``error``."""
     if isinstance(error, RunInterrupted):
-        return error.exit_status, _one_line(error) + " (continue with --restart)"
+        return error.exit_status, one_line(error) + " (continue with --restart)"
     if isinstance(error, KeyboardInterrupt):
         return 130, "interrupted (KeyboardInterrupt)"
     if isinstance(error, SolverError):
@@ -118,18 +128,10 @@ def exit_status_and_message(error: BaseException) -> tuple[int, str]:
             if saved is not None
             else ""
         )
-        return EXIT_FAILED, _one_line(error) + extra
+        return EXIT_FAILED, one_line(error) + extra
     if isinstance(error, _INPUT_ERRORS):
-        return EXIT_BAD_INPUT, _one_line(error)
+        return EXIT_BAD_INPUT, one_line(error)
     if isinstance(error, OSError):
-        return EXIT_FAILED, _one_line(error)
+        return EXIT_FAILED, one_line(error)
     text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    return EXIT_FAILED, f"unexpected {type(error).__name__}: {_one_line(error)}\n{text.rstrip()}"
-
-
-def _one_line(error: BaseException) -> str:
-    """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
-    if isinstance(error, PETSc.Error):
-        lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]
-        return f"PETSc {lines[0]}: {lines[-1]}" if len(lines) > 1 else f"PETSc {lines[0]}"
-    return " ".join(str(error).split()) or type(error).__name__
+    return EXIT_FAILED, f"unexpected {type(error).__name__}: {one_line(error)}\n{text.rstrip()}"

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import time
 
-__all__ = ["ERROR_AGREEMENT_SECONDS", "FailureChannel", "agree"]
+from petsc4py import PETSc
+
+__all__ = ["ERROR_AGREEMENT_SECONDS", "FailureChannel", "agree", "one_line"]
 
 #: How long a failing rank waits for the other ranks to fail too (see :class:`FailureChannel`).
 ERROR_AGREEMENT_SECONDS = 10.0
@@ -61,3 +63,11 @@ class FailureChannel:
         if self._comm is not None:
             self._comm.Free()
             self._comm = None
+
+
+def one_line(error: BaseException) -> str:
+    """The message of ``error`` on one line; for PETSc, its code and its most precise line."""
+    if isinstance(error, PETSc.Error):
+        lines = [line.split("] ", 1)[-1] for line in str(error).strip().splitlines()]
+        return f"PETSc {lines[0]}: {lines[-1]}" if len(lines) > 1 else f"PETSc {lines[0]}"
+    return " ".join(str(error).split()) or type(error).__name__

@@ -17,13 +17,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["KINDS", "LARGEST", "REQUIRED", "Key", "is_integer", "is_number", "toml_text"]
+__all__ = [
+    "KINDS",
+    "LARGEST",
+    "REQUIRED",
+    "SHOWN_LENGTH",
+    "Key",
+    "cut",
+    "is_integer",
+    "is_number",
+    "is_plain",
+    "shown",
+    "toml_text",
+]
 
 #: The largest magnitude of a number of a configuration that the front end lets through
 #: without a check of its own (coordinates, lengths, loads): the forms multiply up to
 #: three such numbers (a stress squared times a length, say), and 1e100 cubed is still a
 #: double. The run parameters have their own ranges (:mod:`~nitsche_dolfinx.common.parameters`).
 LARGEST = 1e100
+#: The longest value a message quotes whole: a longer one is cut to its start and its
+#: length (a text of a megabyte is named, not echoed).
+SHOWN_LENGTH = 120
 
 
 class _Required:
@@ -154,3 +169,42 @@ def toml_text(value) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(toml_text(x) for x in value) + "]"
     return repr(value)
+
+
+def cut(text: str, length: int = SHOWN_LENGTH) -> str:
+    """``text``, or when longer than ``length`` its start and its length in characters."""
+    if len(text) <= length:
+        return text
+    return f"{text[: length - 40]}... ({len(text)} characters)"
+
+
+def shown(value) -> str:
+    """``value`` as a message quotes it: its repr on one line (an array as a list), a long
+    text in it cut to its start and its length, and the whole cut to :data:`SHOWN_LENGTH`
+    characters (:func:`cut`)."""
+    return cut(_quoted(value))
+
+
+def _quoted(value) -> str:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, str) and len(value) > SHOWN_LENGTH // 2:
+        return f"{value[:40]!r}... (a text of {len(value)} characters)"
+    if isinstance(value, list):
+        return "[" + ", ".join(_quoted(item) for item in value) + "]"
+    return repr(value)
+
+
+def is_plain(value) -> bool:
+    """Whether ``value`` is data a user writes (a number, a string, a boolean, None, or
+    lists, tuples and tables of them), not an object of the library or a function, whose
+    repr a message of a configuration does not show."""
+    if value is None or isinstance(value, (str, bool, np.bool_)) or is_number(value):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "biuf"
+    if isinstance(value, (list, tuple)):
+        return all(is_plain(item) for item in value)
+    if isinstance(value, dict):
+        return all(isinstance(key, str) and is_plain(item) for key, item in value.items())
+    return False

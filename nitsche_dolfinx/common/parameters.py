@@ -17,12 +17,13 @@ works.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from .keys import LARGEST, is_integer, is_number
+from .keys import LARGEST, is_integer, is_number, shown
 
 __all__ = [
     "CONTACT_METHODS",
+    "DEFAULT_GAMMA0_E",
     "GAMMA0_E_RANGE",
     "GAMMA0_SCALINGS",
     "MASS_MATRICES",
@@ -52,6 +53,9 @@ GAMMA0_SCALINGS = ("absolute", "E")
 #: abs(Theta) gamma0 E: the weight of the term Theta gamma_h sigma_n(u) sigma_n(v) against
 #: the body's stiffness (docs/method.md section 10).
 GAMMA0_E_RANGE = (1e-12, 1e2)
+#: The default of gamma0 relative to the body's stiffness: gamma0 E = 1e-3 (gamma_h = 1e-3
+#: h / E), inside the stable range of P1 and P2 in any units (docs/method.md section 10).
+DEFAULT_GAMMA0_E = 1e-3
 #: The most steps a run may make: more is a mistake in dt or t_end, not a run.
 MAX_STEPS = 10_000_000
 #: The highest quadrature degree: the integrands are polynomials of degree at most
@@ -65,7 +69,8 @@ MASS_MATRICES = ("consistent", "lumped", "redistributed")
 class ParameterError(ValueError):
     """A parameter out of its range: its name, its value and what it must be.
 
-    ``str(error)`` names the parameter as the Python API does (``dt=-0.1: ...``);
+    ``str(error)`` names the parameter as the Python API does (``dt=-0.1: ...``; a long
+    value cut to its start and its length, :func:`~nitsche_dolfinx.common.keys.shown`);
     :meth:`named` gives the same error named as another entry point names it.
     """
 
@@ -75,7 +80,7 @@ class ParameterError(ValueError):
         self.requirement = requirement
         #: Whether the label is the error's own words (not ``name=value``).
         self.explicit = label is not None
-        self.label = label if label is not None else f"{name}={value!r}"
+        self.label = label if label is not None else f"{name}={shown(value)}"
         super().__init__(f"{self.label}: {requirement}")
 
     def named(self, label: str) -> ParameterError:
@@ -189,16 +194,19 @@ class NitscheParameters:
     the variant Theta, Coulomb's mu_f and the method (see docs/method.md sections 2 and 10).
 
     gamma0 and Theta are checked against the body's Young modulus by :meth:`check_scale`
-    (:class:`~nitsche_dolfinx.model.problem.ContactProblem` calls it)."""
+    (:class:`~nitsche_dolfinx.model.problem.ContactProblem` calls it). ``gamma0=None`` (the
+    default) is :data:`DEFAULT_GAMMA0_E` relative to the body's stiffness, whatever the
+    units: gamma0 = 1e-3 / E, or 1e-3 with ``gamma0_scaling="E"`` (:meth:`resolved`)."""
 
-    gamma0: float = 1.0
+    gamma0: float | None = None
     nitsche_theta: float = 1.0
     friction: float | None = None
     method: str = "nitsche"
     gamma0_scaling: str = "absolute"
 
     def __post_init__(self):
-        require_positive(self.gamma0, "gamma0", "the Nitsche parameter")
+        if self.gamma0 is not None:
+            require_positive(self.gamma0, "gamma0", "the Nitsche parameter")
         require_choice(self.gamma0_scaling, GAMMA0_SCALINGS, "gamma0_scaling", "scaling of gamma0")
         theta = self.nitsche_theta
         require(
@@ -223,12 +231,22 @@ class NitscheParameters:
             "the mixed method is frictionless",
         )
 
+    def resolved(self, E: float) -> NitscheParameters:
+        """These parameters with gamma0 a number: as given, or by default
+        :data:`DEFAULT_GAMMA0_E` / E (``"absolute"``; ``E`` the largest Young modulus of the
+        body, the stiffest material's) or :data:`DEFAULT_GAMMA0_E` (``"E"``)."""
+        if self.gamma0 is not None:
+            return self
+        absolute = self.gamma0_scaling == "absolute"
+        return replace(self, gamma0=DEFAULT_GAMMA0_E / E if absolute else DEFAULT_GAMMA0_E)
+
     def check_scale(self, E: float) -> float:
         """The dimensionless gamma0 E (``gamma0_scaling`` ``"absolute"``) or gamma0
         (``"E"``), checked against :data:`GAMMA0_E_RANGE`, and abs(Theta) times it against
         the range's top; ``E`` is the body's Young modulus (docs/method.md section 10)."""
+        gamma0 = self.resolved(E).gamma0
         absolute = self.gamma0_scaling == "absolute"
-        dimensionless = self.gamma0 * E if absolute else self.gamma0
+        dimensionless = gamma0 * E if absolute else gamma0
         low, high = GAMMA0_E_RANGE
         in_words = f"gamma0 * E = {dimensionless:.3g}" if absolute else "gamma0"
         require(

@@ -14,14 +14,18 @@ Simulation` and the rest come from their TOML keys through
 
 from __future__ import annotations
 
+import re
 from dataclasses import fields
 from typing import NamedTuple
 
 import numpy as np
 import ufl
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from ..cases.two_bodies import body_velocities
+from ..common.agreement import one_line
+from ..common.keys import shown
 from ..common.parameters import Discretisation, NitscheParameters, ParameterError, TimeStepping
 from ..meshing.facet_selectors import InBox, NormalWithin, OnPlane, tag_cells, tag_facets
 from ..meshing.meshes import load_mesh
@@ -37,7 +41,7 @@ from ..simulation import Simulation
 from ..steppers.schemes import TimeScheme, make_scheme
 from .mesh_generators import generate_mesh
 from .parameter_table import PARAMETERS
-from .reader import bad, output_parameters, reported_at, setting
+from .reader import ConfigError, bad, output_parameters, reported_at, setting
 from .schema import FACET_SELECTORS, SCHEMA
 
 __all__ = ["build_simulation"]
@@ -46,7 +50,9 @@ __all__ = ["build_simulation"]
 SELECTOR_CLASSES = {"on_plane": OnPlane, "normal_within": NormalWithin, "in_box": InBox}
 
 
-def build_simulation(config: dict, comm=None, progress: bool = True, source: str = "config"):
+def build_simulation(
+    config: dict, comm=None, progress: bool = True, source: str = "config", petsc_flags=()
+):
     """The :class:`~nitsche_dolfinx.simulation.Simulation` of a validated configuration,
     its probes added.
 
@@ -55,6 +61,8 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
         comm: The communicator (``MPI.COMM_WORLD`` by default).
         progress: Show the progress of the run on rank 0.
         source: Name of the configuration in error messages (its file name).
+        petsc_flags: The keys of ``config["petsc"]`` that the command line's ``--petsc``
+            flags set (an error of their option names the flag, not [petsc]).
 
     Raises:
         ConfigError: A value is out of range or does not fit the mesh.
@@ -74,16 +82,34 @@ def build_simulation(config: dict, comm=None, progress: bool = True, source: str
             cell_tags=cell_tags,
         )  # fmt: skip
     contacts = _add_terms(problem, config, checked.obstacles, cell_tags, source)
-    with reported_at("[solver]", source):
-        simulation = Simulation(
-            problem,
-            **{**_keywords(config, "Simulation"), "scheme": checked.scheme},
-            petsc_options=config.get("petsc"),
-            progress=progress,
-        )
+    scheme = ("[scheme] name", setting(config, "scheme", "name"))  # not its description
+    try:
+        with reported_at("[solver]", source, {"scheme": scheme}):
+            simulation = Simulation(
+                problem,
+                **{**_keywords(config, "Simulation"), "scheme": checked.scheme},
+                petsc_options=config.get("petsc"),
+                progress=progress,
+            )
+    except PETSc.Error as error:  # a PETSc option that PETSc refused
+        raise _petsc_error(error, config.get("petsc") or {}, source, petsc_flags) from None
     _add_probes(simulation, config, contacts, cell_tags, source)
     _check_columns(simulation, config, source)
     return simulation
+
+
+def _petsc_error(error, options: dict, source: str, flags) -> ConfigError:
+    """The error of a PETSc option PETSc refused, named by its key (that whose value the
+    message quotes; else the table) as the file or the ``--petsc`` flag gave it."""
+    message = one_line(error)
+    for key, value in options.items():
+        if value is not None and re.search(rf"(?<![\w.-]){re.escape(str(value))}(?![\w.-])",
+                                           message):  # fmt: skip
+            if key in flags:
+                return ConfigError(f"--petsc {key}={value}: {message}")
+            return ConfigError(f"{source}: [petsc] {key} = {shown(value)}: {message}")
+    given = ", ".join(options) or "none given"
+    return ConfigError(f"{source}: [petsc] (options: {given}): {message}")
 
 
 def _keywords(config: dict, owner: str) -> dict:
@@ -117,7 +143,9 @@ def _checked_values(config: dict, source: str) -> _Checked:
         TimeStepping(run["dt"], run["t_end"], run["max_step_cuts"])
     with reported_at("[nitsche]", source):
         nitsche = NitscheParameters(**{f.name: problem[f.name] for f in fields(NitscheParameters)})
-        for each in material.values() if isinstance(material, dict) else [material]:
+        materials = material.values() if isinstance(material, dict) else [material]
+        nitsche = nitsche.resolved(max(each.E for each in materials))  # as ContactProblem
+        for each in materials:
             nitsche.check_scale(each.E)
     with reported_at("[mesh]", source):
         Discretisation(**{f.name: problem[f.name] for f in fields(Discretisation)})
@@ -135,13 +163,20 @@ def _material(config: dict, source: str) -> Material | dict:
         material = _material_of(config["material"])
     if not config.get("region"):
         return material
+    one_material = "a hyperelastic material is one material for the whole mesh so far"
+    if material.finite:  # each law named in the table that gives it
+        raise bad(source, "[material]", "law", material.law, f"{one_material}: not with "
+                  "[[region]] tables")  # fmt: skip
     materials = {None: material}
     for index, region in enumerate(config["region"]):
+        where = f"[[region]] #{index + 1}"
         try:
             materials[region["tag"]] = _material_of({"rho": material.rho, **region})
         except ParameterError as error:  # named in its own table, not [material]
-            where = f"[[region]] #{index + 1}"
             raise bad(source, where, error.name, error.value, error.requirement) from None
+        if materials[region["tag"]].finite:
+            raise bad(source, where, "law", region["law"], f"{one_material}: give it in "
+                      "[material], without [[region]] tables")  # fmt: skip
     return materials
 
 
@@ -161,12 +196,28 @@ def _obstacles(config: dict, source: str) -> list:
     for index, table in enumerate(config.get("obstacle", [])):
         kind = OBSTACLES[setting(config, "obstacle", "type", table)]
         given = {key: table.get(key, spec.default) for key, spec in kind.keys.items()}
-        with reported_at(f"[[obstacle]] #{index + 1}", source):
+        where = f"[[obstacle]] #{index + 1}"
+        with reported_at(where, source):
             obstacle = kind.make(**given)
-            if "translation" in table or "angle" in table:
+        if "translation" in table or "angle" in table:
+            with reported_at(where, source, _motion_names(table)):
                 obstacle = _moving(obstacle, table)
-            obstacles.append(obstacle)
+        obstacles.append(obstacle)
     return obstacles
+
+
+def _motion_names(table: dict) -> dict:
+    """The keys of an [[obstacle]] table under the API's names of
+    :class:`~nitsche_dolfinx.physics.motion.MovingObstacle` and of the checks of a moving
+    obstacle (for :func:`~nitsche_dolfinx.config.reader.reported_at`): its ``axis`` is the table's
+    ``rotation_axis`` (a cylinder's own ``axis`` is its shape's), and the obstacle as a
+    whole is named by its motion."""
+    motion = "translation" if "translation" in table else "angle"
+    return {
+        "axis": ("rotation_axis", table.get("rotation_axis")),
+        "obstacle": (motion, table.get(motion)),
+        "shape": ("type", setting({}, "obstacle", "type", table)),
+    }
 
 
 def _moving(shape, table: dict) -> MovingObstacle:
@@ -315,6 +366,14 @@ def _check_obstacle_dimension(item: dict, gdim: int, where: str, source: str) ->
     if gdim not in dimensions:
         dims = " or ".join(f"{d}D" for d in dimensions)
         raise bad(source, where, "type", name, f"a {name} obstacle is {dims}, the mesh is {gdim}D")
+    if "angle" in item and gdim == 1:
+        raise bad(source, where, "angle", item["angle"], "a 1D obstacle can only translate")
+    if "angle" in item and gdim == 3 and "rotation_axis" not in item:
+        raise bad(source, where, "angle", item["angle"],
+                  "a rotation in 3D needs its axis: give rotation_axis")  # fmt: skip
+    if "rotation_axis" in item and gdim == 2:
+        raise bad(source, where, "rotation_axis", item["rotation_axis"],
+                  "a 2D obstacle turns about z: rotation_axis is for a 3D mesh")  # fmt: skip
     _check_vectors(item, SCHEMA["obstacle"], gdim, where, source)
 
 
@@ -331,7 +390,7 @@ def _add_terms(problem, config: dict, obstacles: list, cell_tags, source: str) -
             )
     contacts = []
     for index, (obstacle, table) in enumerate(zip(obstacles, config.get("obstacle", []))):
-        with reported_at(f"[[obstacle]] #{index + 1}", source):
+        with reported_at(f"[[obstacle]] #{index + 1}", source, _motion_names(table)):
             contacts.append(problem.add_obstacle(obstacle, table["tag"]))
     for index, table in enumerate(config.get("dirichlet", [])):
         with reported_at(f"[[dirichlet]] #{index + 1}", source):

@@ -19,6 +19,7 @@ unless the demo gives its own (``flag_default``).
 from __future__ import annotations
 
 import inspect
+import re
 from dataclasses import dataclass, replace
 
 from ..common.keys import REQUIRED, Key, toml_text
@@ -31,7 +32,16 @@ from ..simulation import Simulation
 from ..solvers.linear_solvers import LINEAR_SOLVERS
 from ..steppers.schemes import SCHEMES, make_scheme, scheme_parameters
 
-__all__ = ["OWNERS", "PARAMETERS", "Parameter", "by_flag", "by_name", "markdown", "toml_keys"]
+__all__ = [
+    "OWNERS",
+    "PARAMETERS",
+    "Parameter",
+    "by_flag",
+    "by_name",
+    "in_words_of",
+    "markdown",
+    "toml_keys",
+]
 
 #: The classes and functions that take the parameters as keywords, by name.
 OWNERS = {
@@ -127,6 +137,10 @@ def _key(kind, default, meaning, choices=(), shown=None) -> Key:
     return Key(kind, default, meaning, tuple(choices), shown, checked_by_library=True)
 
 
+#: The default of gamma0 in words: gamma0 E = 1e-3 in any units
+#: (:data:`~nitsche_dolfinx.common.parameters.DEFAULT_GAMMA0_E`).
+_GAMMA0_DEFAULT = "gamma0 E = 1e-3, any units (gamma0_scaling E: gamma0 = 1e-3)"
+
 #: Every run parameter, in the order of the docs: scheme and steps, contact, elements,
 #: material, initial values, solver, output.
 PARAMETERS: tuple[Parameter, ...] = (
@@ -147,8 +161,9 @@ PARAMETERS: tuple[Parameter, ...] = (
               _key("string", "nitsche", "contact method (mixed: a Lagrange multiplier, one "
                    "obstacle, scheme cn)", CONTACT_METHODS)),
     Parameter("gamma0", "ContactProblem", "[nitsche] gamma0", "--gamma0",
-              _key("number", 1e-3, "Nitsche parameter: gamma_h = gamma0 h (penalty: eps = "
-                   "gamma0 h)"), DEMO_DEFAULT),
+              _key("number", None, "Nitsche parameter: gamma_h = gamma0 h (penalty: eps = "
+                   "gamma0 h)", shown=_GAMMA0_DEFAULT), DEMO_DEFAULT,
+              api_default=_GAMMA0_DEFAULT),
     Parameter("gamma0_scaling", "ContactProblem", "[nitsche] gamma0_scaling",
               "--gamma0-scaling",
               _key("string", "absolute", "absolute: gamma_h = gamma0 h (gamma0 in 1/stress, "
@@ -228,7 +243,7 @@ PARAMETERS: tuple[Parameter, ...] = (
                    "momentum, centre_of_mass), contact_force_k and contact_area_k (the k-th "
                    "obstacle; a contact pair counts two), friction_dissipation, "
                    "energy_balance_residual, damping_dissipation, the probes' names",
-                   shown="those of the 2D/3D demos, then the probes"),
+                   shown="those of the 2D/3D demos that the run gives, then the probes"),
               api_default="HISTORY_COLUMNS"),
     Parameter("restart", "Simulation.run", None, "--restart",
               _key("boolean", None, "continue from the checkpoint in OUT/checkpoint"),
@@ -248,6 +263,30 @@ def by_name(name: str) -> Parameter | None:
 def by_flag(flag: str) -> Parameter:
     """The parameter of the flag ``flag`` (``"--nitsche-theta"``)."""
     return next(parameter for parameter in PARAMETERS if parameter.flag == flag)
+
+
+#: ``name=value`` in the API's words: a name, ``=`` (not ``==``), a quoted or plain value.
+_API_ASSIGNMENT = re.compile(r"(?<![\w.\[])([A-Za-z_]\w*)=(?!=)('[^']*'|[^\s,;)]+)")
+
+
+def in_words_of(text: str, entry: str) -> str:
+    """``text`` (what a value must be, shared by the entry points) with each ``name=value``
+    of a run parameter, the API's words, written as the entry point ``entry`` writes it:
+    ``"toml"``, ``[table] key = value``; ``"flag"``, ``--flag value``. A name that is
+    not a run parameter of that entry point is left as it is."""
+
+    def spoken(match: re.Match) -> str:
+        parameter, value = by_name(match[1]), match[2]
+        switch = parameter is not None and parameter.key.kind == "boolean"
+        if parameter is not None and entry == "toml" and parameter.toml_key:
+            return f"{parameter.toml} = {value.lower() if switch else value}"
+        if parameter is not None and entry == "flag" and parameter.flag:
+            if switch:  # a switch: the flag alone sets it
+                return parameter.flag if value == "True" else f"no {parameter.flag}"
+            return f"{parameter.flag} {value.strip(chr(39))}"
+        return match[0]
+
+    return _API_ASSIGNMENT.sub(spoken, text)
 
 
 def toml_keys(table: str) -> dict[str, Key]:

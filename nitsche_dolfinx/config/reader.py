@@ -55,7 +55,7 @@ import contextlib
 import math
 import os
 
-from ..common.keys import KINDS
+from ..common.keys import KINDS, is_number, is_plain, shown
 from ..common.parameters import OutputParameters, ParameterError, TimeStepping
 from ..output.history import (
     DAMPING_COLUMNS,
@@ -73,7 +73,7 @@ from ..physics.valueforms import check_field_value, check_time_value
 from ..steppers.schemes import SCHEMES
 from ..steppers.work import reaction_columns
 from .mesh_generators import GENERATOR_KEYS, check_generator
-from .parameter_table import by_name
+from .parameter_table import by_name, in_words_of
 from .schema import FACET_SELECTORS, PROBE_QUANTITIES, SCHEMA
 
 try:  # an optional dependency: Python >= 3.11 has tomllib, before it the tomli package
@@ -164,8 +164,9 @@ def setting(config: dict, table: str, key: str, item: dict | None = None):
 
 
 def bad(source: str, where: str, key: str, value, requirement: str) -> ConfigError:
-    """The error of ``[table] key = value``: ``requirement``."""
-    return ConfigError(f"{source}: {where} {key} = {value!r}: {requirement}")
+    """The error of ``[table] key = value``: ``requirement`` (a long value cut,
+    :func:`~nitsche_dolfinx.common.keys.shown`)."""
+    return ConfigError(f"{source}: {where} {key} = {shown(value)}: {requirement}")
 
 
 # -- the checks before anything is read or computed ------------------------------------
@@ -211,6 +212,7 @@ def validate(config: dict, source: str = "config") -> None:
     for index, obstacle in enumerate(config.get("obstacle", [])):
         _check_obstacle(obstacle, f"[[obstacle]] #{index + 1}", source)
     _check_values(config, source)
+    _check_mixed(config, source)
     _check_probes(config.get("probe", []), source)
     if config.get("body") and "velocity" in config.get("initial", {}):
         raise ConfigError(
@@ -231,10 +233,12 @@ def _check_table(table, spec, where: str) -> None:
             raise ConfigError(f"{where} unknown key {key!r} (known: {', '.join(spec.keys)})")
         key_spec = spec.keys[key]
         if not key_spec.fits(value):
-            raise ConfigError(f"{where} {key} must be {KINDS[key_spec.kind][0]}, got {value!r}")
+            raise ConfigError(
+                f"{where} {key} must be {KINDS[key_spec.kind][0]}, got {shown(value)}"
+            )
         problem = key_spec.problem(value)
         if problem is not None:
-            raise ConfigError(f"{where} {key} = {value!r}: {problem}")
+            raise ConfigError(f"{where} {key} = {shown(value)}: {problem}")
     for key, key_spec in spec.keys.items():
         if key_spec.required and key not in table:
             raise ConfigError(f"{where} missing required key {key!r}")
@@ -248,7 +252,7 @@ def _check_petsc(petsc, source: str) -> None:
         if isinstance(value, (dict, list)):
             raise ConfigError(
                 f"{source}: [petsc] {key} must be a string, number or boolean, got "
-                f"{value!r} (write options flat, e.g. snes_rtol = 1e-8)"
+                f"{shown(value)} (write options flat, e.g. snes_rtol = 1e-8)"
             )
 
 
@@ -272,7 +276,7 @@ def _check_scheme_keys(scheme: dict, source: str) -> None:
     for key in sorted(others & scheme.keys(), key=list(scheme).index):
         if key not in SCHEMES[name].parameters:
             raise ConfigError(
-                f"{source}: [scheme] {key} = {scheme[key]!r} is not a parameter of the "
+                f"{source}: [scheme] {key} = {shown(scheme[key])} is not a parameter of the "
                 f"{name!r} scheme (it takes {', '.join(SCHEMES[name].parameters) or 'none'})"
             )
 
@@ -285,7 +289,7 @@ def _check_mesh(mesh: dict, source: str) -> None:
         extra = [key for key in mesh if key in GENERATOR_KEYS]
         if extra:
             raise ConfigError(
-                f"{source}: [mesh] {extra[0]} = {mesh[extra[0]]!r} is a key of the generated "
+                f"{source}: [mesh] {extra[0]} = {shown(mesh[extra[0]])} is a key of the generated "
                 "meshes, not of a mesh file"
             )
         return
@@ -308,6 +312,10 @@ def _check_obstacle(obstacle: dict, where: str, source: str) -> None:
     for key, spec in keys.items():
         if spec.required and key not in obstacle:
             raise ConfigError(f"{source}: {where} missing required key {key!r} (type {kind!r})")
+    for key in ("pivot", "rotation_axis"):  # the keys of a turn, without one
+        if key in obstacle and "angle" not in obstacle:
+            raise bad(source, where, key, obstacle[key], "it goes with angle, which the "
+                      "table does not give")  # fmt: skip
 
 
 def _check_facet_tag(table: dict, where: str, source: str) -> None:
@@ -347,6 +355,28 @@ def _check_values(config: dict, source: str) -> None:
                 raise bad(source, where, key, item[key], str(error)) from None
 
 
+def _check_mixed(config: dict, source: str) -> None:
+    """What the mixed method takes, named in the file's words: one [[obstacle]], and
+    Dirichlet values that are zero (:class:`~nitsche_dolfinx.steppers.mixed.MixedStepper`)."""
+    if setting(config, "nitsche", "method") != "mixed":
+        return
+    count = len(config.get("obstacle", []))
+    if count != 1:
+        raise bad(
+            source, "[nitsche]", "method", "mixed",
+            f"the mixed method takes exactly one [[obstacle]], the file has {count}",
+        )  # fmt: skip
+    for index, table in enumerate(config.get("dirichlet", [])):
+        value = table["value"]
+        numbers = [value] if is_number(value) else value
+        if not (isinstance(numbers, list) and all(is_number(x) and x == 0 for x in numbers)):
+            raise bad(
+                source, f"[[dirichlet]] #{index + 1}", "value", value,
+                "the mixed method ([nitsche] method = 'mixed') takes zero Dirichlet values "
+                "only (a constant 0 or [0.0, ...])",
+            )  # fmt: skip
+
+
 def _check_probes(probes: list, source: str) -> None:
     names = set()
     for index, probe in enumerate(probes):
@@ -373,25 +403,49 @@ def _check_probes(probes: list, source: str) -> None:
 
 
 @contextlib.contextmanager
-def reported_at(where: str, source: str):
+def reported_at(where: str, source: str, names: dict | None = None):
     """Turn a ValueError of the block into a :class:`ConfigError` naming the table ``where``
     (and, for a :class:`~nitsche_dolfinx.common.parameters.ParameterError`, the key and value: a
     run parameter's TOML key from :mod:`~nitsche_dolfinx.config.parameter_table`, any other name
-    as a key of ``where``)."""
+    as a key of ``where``). Another run parameter that the message names in the API's
+    words (``degree=2``) is named by its TOML key (``[mesh] degree = 2``,
+    :func:`~nitsche_dolfinx.config.parameter_table.in_words_of`).
+
+    ``names`` maps the API's name of a value that the file writes under another key to
+    that key (of ``where``, or a whole ``[table] key``) and the value the file gives,
+    ``{"axis": ("rotation_axis", [0, 0, 1])}``: the message then quotes what the user wrote.
+    A value that a configuration cannot hold (an object of the library, None) is not
+    quoted: the key alone is named."""
     try:
         yield
     except ConfigError:
         raise
     except ParameterError as error:
+        error = ParameterError(
+            error.name, error.value, in_words_of(error.requirement, "toml"),
+            in_words_of(error.label, "toml") if error.explicit else None,
+        )  # fmt: skip
+        if names and error.name in names and not error.explicit:
+            key, value = names[error.name]
+            label = _assignment(key if key.startswith("[") else f"{where} {key}", value)
+            raise ConfigError(f"{source}: {error.named(label)}") from None
         parameter = by_name(error.name)
         key = parameter.toml if parameter is not None and parameter.toml else where
         if error.explicit:  # the error's own words, after its table
             raise ConfigError(f"{source}: {key.split(' ')[0]} {error}") from None
         if key == where:
             key = f"{where} {error.name}"
-        raise ConfigError(f"{source}: {error.named(f'{key} = {error.value!r}')}") from None
+        raise ConfigError(f"{source}: {error.named(_assignment(key, error.value))}") from None
     except ValueError as error:
-        raise ConfigError(f"{source}: {where} {error}") from None
+        raise ConfigError(f"{source}: {where} {in_words_of(str(error), 'toml')}") from None
+
+
+def _assignment(key: str, value) -> str:
+    """``key = value`` as a message of a configuration names a value (cut when long); the
+    key alone for a value that no TOML file holds (None, an object of the library)."""
+    if value is None or not is_plain(value):
+        return key
+    return f"{key} = {shown(value)}"
 
 
 def output_parameters(
@@ -419,7 +473,10 @@ def output_parameters(
 
 def history_columns(config: dict, simulation) -> list[str]:
     """The columns of ``history.csv``: ``[output] columns``, or those of the 2D/3D demos
-    (with the energy balance under friction), the probes and the [[body]] tables' columns."""
+    (with the energy balance under friction), the probes and the [[body]] tables' columns,
+    each that the run gives: the mixed method's stepper gives no reactions of the supports
+    and no work (its Dirichlet values are zero: the supports do none), so that its default
+    columns leave them out."""
     columns = config.get("output", {}).get("columns")
     if columns is not None:
         return list(columns)
@@ -434,4 +491,6 @@ def history_columns(config: dict, simulation) -> list[str]:
     balance = WORK_COLUMNS if tags or work else ()
     probes = (probe["name"] for probe in config.get("probe", []))
     bodies = (name for body in problem.bodies for name in body_columns(body.tag, problem.gdim))
-    return [*base, *finite, *work, *damping, *pairing, *supports, *balance, *probes, *bodies]
+    columns = [*base, *finite, *work, *damping, *pairing, *supports, *balance, *probes, *bodies]
+    given = simulation.state()
+    return [name for name in columns if name in given]

@@ -5,14 +5,16 @@ time schemes assemble, at the time of the problem's data.
 
 from __future__ import annotations
 
+import dolfinx.mesh
 import numpy as np
 import ufl
 from dolfinx import fem
 
+from ..common import compat
 from ..common.parameters import require
 from ..physics.dirichlet import DirichletCondition
 from ..physics.expressions import has_text, vector_expression
-from ..physics.problem_values import ProblemValue
+from ..physics.problem_values import ProblemValue, check_finite_texts
 
 __all__ = ["ProblemData"]
 
@@ -30,6 +32,7 @@ class ProblemData:
         self._tractions: list[tuple[int, ProblemValue]] = []
         self.initial_displacement = None
         self.initial_velocity = None
+        self._node_coordinates = None  # of V's nodes, when a check of the data needs them
 
     def _value(self, value, shape: tuple[int, ...], what: str) -> ProblemValue:
         """A value of the problem's data
@@ -50,7 +53,7 @@ class ProblemData:
         returning one. ``add_dirichlet(tag, 0.0, component=0)`` is a symmetry plane x =
         const, or a roller on it.
         """
-        self.facets(tag)
+        facets = self.facets(tag)
         if component is None or self.gdim == 1:
             require(
                 component in (None, 0),
@@ -59,6 +62,7 @@ class ProblemData:
                 "the displacement of a 1D mesh has one component, 0",
             )
             value = self._value(value, (self.gdim,), "Dirichlet value")
+            value.check_finite(lambda: self._nodes(facets), self.mesh.comm)
             self.dirichlet.append(DirichletCondition(tag, value))
             return
         require(
@@ -70,19 +74,25 @@ class ProblemData:
             f"the displacement has the components 0 to {self.gdim - 1}",
         )
         value = self._value(value, (1,), "Dirichlet value of a component")
+        value.check_finite(lambda: self._nodes(facets), self.mesh.comm)
         self.dirichlet.append(DirichletCondition(tag, value, int(component)))
 
     def add_body_force(self, value) -> None:
         """Add a volume force f: a vector, a function of t returning one, or a value in space
         and time (a UFL vector of :attr:`x` and :attr:`t`, or a list of numbers and
         expression texts such as ``[0, "-9.81 * (1 + x)"]``: :meth:`_value`)."""
-        self._body_forces.append(self._value(value, (self.gdim,), "body force"))
+        force = self._value(value, (self.gdim,), "body force")
+        force.check_finite(lambda: self._midpoints(self.mesh.topology.dim), self.mesh.comm)
+        self._body_forces.append(force)
 
     def add_traction(self, tag: int, value) -> None:
         """Add a Neumann traction g_N on the facets ``tag``: a vector, a function of t, or a
         value in space and time (as for :meth:`add_body_force`)."""
-        self.facets(tag)
-        self._tractions.append((tag, self._value(value, (self.gdim,), "traction")))
+        facets = self.facets(tag)
+        traction = self._value(value, (self.gdim,), "traction")
+        fdim = self.mesh.topology.dim - 1
+        traction.check_finite(lambda: self._midpoints(fdim, facets), self.mesh.comm)
+        self._tractions.append((tag, traction))
 
     def set_initial_conditions(self, displacement=None, velocity=None) -> None:
         """Initial displacement u0 and velocity v0 (zero when omitted).
@@ -93,16 +103,42 @@ class ProblemData:
         texts of x, y, z (:mod:`~nitsche_dolfinx.physics.expressions`; no t), e.g.
         ``["0.1 * sin(pi * x)", 0]``.
         """
-        self.initial_displacement = self._field(displacement, "initial displacement")
-        self.initial_velocity = self._field(velocity, "initial velocity")
+        self.initial_displacement = self._field(displacement, "initial displacement",
+                                                "displacement")  # fmt: skip
+        self.initial_velocity = self._field(velocity, "initial velocity", "velocity")
 
-    def _field(self, value, what: str):
+    def _field(self, value, what: str, name: str):
         """An initial field as :func:`~nitsche_dolfinx.steppers.base.interpolate_initial` takes
-        it: expression texts made UFL of x (refused with t)."""
+        it: expression texts made UFL of x (refused with t, or not finite at a node)."""
         if not has_text(value):
             return value
         texts = [value] if isinstance(value, str) else list(value)
-        return vector_expression(texts, self.mesh, None, name=what)
+        field = vector_expression(texts, self.mesh, None, name=what)
+        check_finite_texts(texts, self.gdim, lambda: self._nodes(), self.mesh.comm, None,
+                           name, value, what)  # fmt: skip
+        return field
+
+    def _nodes(self, facets=None) -> np.ndarray:
+        """The coordinates (shape (gdim, N)) of the nodes of the displacement space on this
+        rank, or of those of ``facets``: where Dirichlet values and initial fields are
+        interpolated."""
+        if self._node_coordinates is None:
+            self._node_coordinates = compat.node_coordinates(self.V)
+        nodes = self._node_coordinates
+        if facets is not None:
+            fdim = self.mesh.topology.dim - 1
+            nodes = nodes[fem.locate_dofs_topological(self.V, fdim, facets)]
+        return nodes.T
+
+    def _midpoints(self, dim: int, entities=None) -> np.ndarray:
+        """The midpoints (shape (3, N)) of this rank's cells (``dim`` the mesh's) or of the
+        ``entities`` of dimension ``dim``: points where the loads are integrated, checked
+        before a run."""
+        if entities is None:
+            entities = np.arange(self.mesh.topology.index_map(dim).size_local, dtype=np.int32)
+        if len(entities) == 0:
+            return np.zeros((3, 0))
+        return dolfinx.mesh.compute_midpoints(self.mesh, dim, np.asarray(entities, np.int32)).T
 
     @property
     def has_loads(self) -> bool:

@@ -54,7 +54,10 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
             :class:`~nitsche_dolfinx.physics.regions.CellwiseMaterial`).
         degree: Degree of the Lagrange displacement space (1 or 2).
         gamma0: Nitsche parameter: gamma_h = gamma0 h_T (small gamma0 = stiff contact), or
-            gamma0 h_T / E with ``gamma0_scaling="E"``.
+            gamma0 h_T / E with ``gamma0_scaling="E"``. Default (None): gamma0 E = 1e-3
+            whatever the units (:data:`~nitsche_dolfinx.common.parameters.DEFAULT_GAMMA0_E`):
+            gamma0 = 1e-3 / E, E the largest Young modulus of the materials, or 1e-3 with
+            ``gamma0_scaling="E"`` (docs/method.md section 10).
         nitsche_theta: Nitsche variant Theta: 1 symmetric, 0 non-symmetric, -1 skew-symmetric.
         friction: Coulomb coefficient mu_f >= 0, or None (the default) for frictionless
             contact. With a coefficient, the frictional Nitsche term of docs/method.md section 2 is
@@ -148,7 +151,7 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         facet_tags,
         material: Material,
         degree: int = 1,
-        gamma0: float = 1.0,
+        gamma0: float | None = None,
         nitsche_theta: float = 1.0,
         friction: float | None = None,
         quadrature_degree: int | None = None,
@@ -168,6 +171,8 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         regions = isinstance(material, dict)
         #: Every material of the problem (one, or one per cell tag).
         self.materials = list(material.values()) if regions else [material]
+        moduli = [each.E for each in self.materials if isinstance(each, Material)]
+        nitsche = nitsche.resolved(max(moduli, default=1.0))  # the default gamma0: of E
         for each in self.materials:
             if isinstance(each, Material):
                 nitsche.check_scale(each.E)
@@ -185,7 +190,7 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         self.mass_matrix = MassMatrix(
             self.mass, self.V, self.material_constants.rho, self._contact_facets
         )
-        self._init_nitsche(gamma0, nitsche_theta, friction, nitsche.gamma0_scaling)
+        self._init_nitsche(nitsche.gamma0, nitsche_theta, friction, nitsche.gamma0_scaling)
         if quadrature_degree is None:
             quadrature_degree = 2 * self.degree + 2 * (compat.geometry_degree(mesh) - 1)
         self.quadrature_degree = int(quadrature_degree)
@@ -221,7 +226,7 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         #: docs/method.md section 15), None for linear elasticity.
         self.law = None if regions else material.strain_energy
         if self.law is not None:
-            _check_finite(self.mesh, nitsche)
+            _check_finite(self.mesh, nitsche, material.law)
         for each in self.materials if regions else []:
             require(
                 not each.finite, "law", each.law,
@@ -287,10 +292,10 @@ class ContactProblem(ProblemTerms, ProblemContacts, ProblemData):
         return body
 
 
-def _check_finite(mesh, nitsche: NitscheParameters) -> None:
-    """Refuse what a hyperelastic material does not take (yet)."""
+def _check_finite(mesh, nitsche: NitscheParameters, law) -> None:
+    """Refuse what a hyperelastic material (of ``law``) does not take (yet)."""
     require(
-        mesh.geometry.dim > 1, "law", "hyperelastic",
+        mesh.geometry.dim > 1, "law", law,
         "a hyperelastic material needs a 2D (plane strain) or 3D mesh",
     )  # fmt: skip
     require(

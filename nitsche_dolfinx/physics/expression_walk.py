@@ -21,6 +21,7 @@ import operator
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
 import ufl
 
 from ..common.keys import LARGEST
@@ -49,6 +50,7 @@ class _Function:
     arity: int | None  # the number of arguments; None: two or more, folded
     number: Callable  # on floats (constant folding)
     form: Callable  # on UFL
+    array: Callable  # on numpy arrays (the values at points: evaluate)
 
 
 def _fold(pair: Callable) -> Callable:
@@ -57,15 +59,15 @@ def _fold(pair: Callable) -> Callable:
 
 #: The functions an expression may call.
 FUNCTIONS = {
-    "sin": _Function(1, math.sin, ufl.sin),
-    "cos": _Function(1, math.cos, ufl.cos),
-    "tan": _Function(1, math.tan, ufl.tan),
-    "exp": _Function(1, math.exp, ufl.exp),
-    "log": _Function(1, math.log, ufl.ln),
-    "sqrt": _Function(1, math.sqrt, ufl.sqrt),
-    "abs": _Function(1, abs, abs),
-    "min": _Function(None, min, _fold(ufl.min_value)),
-    "max": _Function(None, max, _fold(ufl.max_value)),
+    "sin": _Function(1, math.sin, ufl.sin, np.sin),
+    "cos": _Function(1, math.cos, ufl.cos, np.cos),
+    "tan": _Function(1, math.tan, ufl.tan, np.tan),
+    "exp": _Function(1, math.exp, ufl.exp, np.exp),
+    "log": _Function(1, math.log, ufl.ln, np.log),
+    "sqrt": _Function(1, math.sqrt, ufl.sqrt, np.sqrt),
+    "abs": _Function(1, abs, abs, np.abs),
+    "min": _Function(None, min, _fold(ufl.min_value), _fold(np.minimum)),
+    "max": _Function(None, max, _fold(ufl.max_value), _fold(np.maximum)),
 }
 
 _ARITHMETIC = {
@@ -155,8 +157,9 @@ class ExpressionWalk:
     from ``names``: floats fold, :data:`RUNTIME` stands for x and t when checking, UFL
     objects when building. Conditions are Python bools when constant."""
 
-    def __init__(self, text: str, source: str, name: str, names: dict):
+    def __init__(self, text: str, source: str, name: str, names: dict, numeric: bool = False):
         self.text, self.source, self.name, self.names = text, source, name, names
+        self.numeric = numeric  # numpy arrays for x and t (evaluate), not UFL
         self.used: set[str] = set()
 
     def fail(self, requirement: str):
@@ -275,7 +278,7 @@ class ExpressionWalk:
             return self._folded(function.number, args, node)
         if _runtime(*args):
             return RUNTIME
-        return function.form(*args)
+        return function.array(*args) if self.numeric else function.form(*args)
 
     def _function(self, node: ast.Call) -> _Function:
         listed = ", ".join(FUNCTIONS)
@@ -302,6 +305,8 @@ class ExpressionWalk:
             return chosen if condition else other
         if _runtime(condition, chosen, other):
             return RUNTIME
+        if self.numeric:
+            return np.where(condition, chosen, other)
         return ufl.conditional(condition, chosen, other)
 
     def condition(self, node: ast.AST):
@@ -326,6 +331,8 @@ def _compare(comparison: tuple, left, right):
     _, number, form = comparison
     if isinstance(left, float) and isinstance(right, float):
         return number(left, right)
+    if isinstance(left, np.ndarray) or isinstance(right, np.ndarray):  # evaluate's
+        return number(left, right)
     if _runtime(left, right):
         return RUNTIME
     return form(left, right)
@@ -335,6 +342,8 @@ def _and(left, right):
     if isinstance(left, bool) or isinstance(right, bool):
         constant, other = (left, right) if isinstance(left, bool) else (right, left)
         return other if constant else False
+    if isinstance(left, np.ndarray):  # evaluate's
+        return np.logical_and(left, right)
     return RUNTIME if _runtime(left, right) else ufl.And(left, right)
 
 
@@ -342,4 +351,6 @@ def _or(left, right):
     if isinstance(left, bool) or isinstance(right, bool):
         constant, other = (left, right) if isinstance(left, bool) else (right, left)
         return True if constant else other
+    if isinstance(left, np.ndarray):  # evaluate's
+        return np.logical_or(left, right)
     return RUNTIME if _runtime(left, right) else ufl.Or(left, right)

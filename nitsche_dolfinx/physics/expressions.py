@@ -41,6 +41,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
 import ufl
 
 from ..common.keys import LARGEST, is_number
@@ -52,6 +53,7 @@ __all__ = [
     "MAX_DEPTH",
     "MAX_LENGTH",
     "ExpressionTree",
+    "evaluate",
     "has_text",
     "expression",
     "parse_expression",
@@ -149,6 +151,28 @@ def to_ufl(tree: ExpressionTree, x, t=None):
     names = scope(tree.gdim, [x[i] for i in range(tree.gdim)], t)
     builder = ExpressionWalk(tree.text, tree._source, tree.name, names)
     return ufl.as_ufl(builder.value(tree._tree.body))
+
+
+def evaluate(tree: ExpressionTree, points: np.ndarray, t: float | None = None) -> np.ndarray:
+    """The values of a checked expression at ``points`` (shape (gdim or 3, N)) and time
+    ``t``, in floating point as the compiled form computes them: nan or inf where it is
+    undefined or infinite there (``1/t`` at t = 0), no error. A check of the data before
+    a run (:class:`~nitsche_dolfinx.physics.problem_values.ProblemValue`), not a way to
+    compute them.
+
+    Returns:
+        An array of N values.
+    """
+    points = np.asarray(points, dtype=float)
+    count = points.shape[1]
+    if t is None and tree.uses_time:
+        raise ParameterError(tree.name, tree.text, "'t' (time) is not available here")
+    time = np.full(count, 0.0 if t is None else float(t))
+    names = scope(tree.gdim, [points[i] for i in range(tree.gdim)], time)
+    builder = ExpressionWalk(tree.text, tree._source, tree.name, names, numeric=True)
+    with np.errstate(all="ignore"):
+        value = builder.value(tree._tree.body)
+        return np.broadcast_to(np.asarray(value, dtype=float), (count,)).copy()
 
 
 def expression(text: str | float, mesh, t=None, *, name: str):

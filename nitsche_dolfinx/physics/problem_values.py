@@ -14,6 +14,11 @@ A value is one of
 
 The forms take :attr:`ProblemValue.ufl` whatever the kind; the values at dofs (Dirichlet
 values, the explicit scheme's lumped load) are interpolated from it at the time asked for.
+
+Texts are checked before a run where the problem evaluates them
+(:meth:`ProblemValue.check_finite`, :func:`check_finite_texts`): a value that is not
+finite there at t = 0 (``"1/t"``) is refused naming it, instead of a Newton solve that
+fails on NaN.
 """
 
 from __future__ import annotations
@@ -25,9 +30,10 @@ from ufl.algorithms.analysis import extract_type
 
 from ..common import compat
 from ..common.keys import LARGEST
-from .expressions import expression, has_text, vector_expression
+from ..common.parameters import ParameterError
+from .expressions import evaluate, expression, has_text, parse_expression, vector_expression
 
-__all__ = ["ProblemValue", "as_array"]
+__all__ = ["ProblemValue", "as_array", "check_finite_texts"]
 
 
 class ProblemValue:
@@ -43,6 +49,8 @@ class ProblemValue:
 
     def __init__(self, mesh, time, value, shape: tuple[int, ...], what: str):
         self.shape, self.what, self._time = shape, what, time
+        #: The value as given (for messages), and its texts (None: no text).
+        self.given, self.texts = value, None
         self._function = None  # a Python function of t
         #: The fem.Constant of a constant or of a function of t (None for UFL values).
         self.constant = None
@@ -51,6 +59,7 @@ class ProblemValue:
         elif has_text(value):
             texts = list(np.atleast_1d(np.asarray(value, dtype=object)))
             self.ufl = _shaped(_texts(texts, mesh, time, shape, what), shape, what)
+            self.texts, self._gdim = texts, mesh.geometry.dim
         else:
             if callable(value):
                 self._function = value
@@ -80,6 +89,13 @@ class ProblemValue:
             return np.asarray(self.constant.value)
         return as_array(self._function(t), self.shape, self.what)
 
+    def check_finite(self, points, comm, t: float = 0.0, name: str = "value") -> None:
+        """Refuse texts whose value at time t is not finite at ``points`` (see
+        :func:`check_finite_texts`); other values are checked when made."""
+        if self.texts is not None:
+            check_finite_texts(self.texts, self._gdim, points, comm, t, name, self.given,
+                               self.what)  # fmt: skip
+
     def set_time(self, t: float) -> None:
         """Move a function of t to time t (UFL values follow the problem's t)."""
         if self._function is not None:
@@ -105,6 +121,44 @@ class ProblemValue:
                 target.interpolate(expression, cells)
         finally:
             self._time.value = before
+
+
+def check_finite_texts(texts, gdim: int, points, comm, t, name: str, given, what: str) -> None:
+    """Refuse expression texts (numbers and texts, one per component) whose value at time
+    ``t`` (None: a value in space only) is not finite, or above
+    :data:`~nitsche_dolfinx.common.keys.LARGEST` in magnitude, at ``points``: the points of this
+    rank where the problem evaluates them (shape (gdim or 3, N), or a function that gives
+    them, called only for a text of the position). A text of t alone is checked once.
+    Collective: every rank raises the same :class:`~nitsche_dolfinx.common.parameters.
+    ParameterError`, naming ``name`` with the value ``given``.
+    """
+    found = None
+    for index, text in enumerate(texts):
+        tree = parse_expression(text, name=name, gdim=gdim)
+        if tree.uses_space:
+            points = points() if callable(points) else np.asarray(points, dtype=float)
+            where = points
+        else:
+            where = np.zeros((gdim, 1))
+        values = evaluate(tree, where, t) if where.shape[1] else np.zeros(0)
+        bad = np.flatnonzero(~(np.isfinite(values) & (np.abs(values) <= LARGEST)))
+        if bad.size:
+            at = where[:gdim, bad[0]].tolist() if tree.uses_space else None
+            found = (index, float(values[bad[0]]), at)
+            break
+    found = next((each for each in comm.allgather(found) if each is not None), None)
+    if found is None:
+        return
+    index, value, at = found
+    text = texts[index] if isinstance(texts[index], str) else repr(texts[index])
+    which = f"component {index} ({text!r})" if len(texts) > 1 else repr(text)
+    when = "" if t is None else f" at t = {t:g}"
+    where = "" if at is None else f" at x = [{', '.join(f'{c:g}' for c in at)}]"
+    raise ParameterError(
+        name, given,
+        f"{which} is {value:g}{when}{where}: the {what} must be finite (of magnitude at most "
+        f"{LARGEST:g}) where the body is",
+    )  # fmt: skip
 
 
 def _texts(texts, mesh, time, shape, what):

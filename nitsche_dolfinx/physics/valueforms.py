@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from ..common.keys import LARGEST, is_number
+from ..common.keys import LARGEST, is_number, shown
 from ..common.parameters import ParameterError
 from .expressions import has_text, parse_expression
 
@@ -155,7 +155,7 @@ def check_time_value(value) -> int:
             raise ValueError("must have rows [t, value...] of one length (a time and the value)")
         times = [row[0] for row in rows]
         if any(b <= a for a, b in zip(times, times[1:])):
-            raise ValueError(f"must have increasing times, got {times}")
+            raise ValueError(f"must have increasing times, got {shown(times)}")
         return len(rows[0]) - 1
     return len(
         _vector(value, "a number, a list of numbers, a table [[t, value...], ...] or a profile")

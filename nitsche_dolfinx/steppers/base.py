@@ -21,7 +21,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from ..common import compat
-from ..common.parameters import ParameterError, require
+from ..common.parameters import ParameterError
 from ..model.problem import ContactProblem
 from ..physics.damping import DiagonalDamping
 from ..physics.problem_values import as_array
@@ -179,7 +179,10 @@ def interpolate_initial(target: fem.Function, value, gdim: int) -> None:
     finite = target.function_space.mesh.comm.allreduce(
         bool(np.all(np.isfinite(target.x.array))), op=MPI.LAND
     )
-    require(finite, f"initial {target.name}", "NaN or inf", "the initial values must be finite")
+    if not finite:  # the value as given may be a function: not quoted
+        what = f"initial {target.name}"
+        raise ParameterError(what, None, "the initial values must be finite (nan or inf at a "
+                             "node)", label=what)  # fmt: skip
 
 
 def check_initial_gap(penetration: float, mesh) -> None:

@@ -62,7 +62,7 @@ def resolve_step(scheme, stable: float, time_stepping: TimeStepping) -> float:
             "dt", dt,
             f"above the verlet scheme's stable step {stable:.6g} (estimated for this "
             f"mesh, mass, gamma0 and Theta); take dt='auto' ({scheme.safety:g} of it) or "
-            "insist on it (force_dt, the flag --force-dt)",
+            "insist on it (force_dt=True)",
         )  # fmt: skip
     return float(dt)
 
